@@ -1,0 +1,33 @@
+from django.db import models
+
+
+class MessageType(models.TextChoices):
+    """Board messages the server posts for a robot (protocol v1, response body)."""
+
+    PLAN = "plan", "Plan"
+    RESOURCE_GRANT = "resource_grant", "Resource grant"
+    RESOURCE_QUEUED = "resource_queued", "Resource queued"
+    ACTION = "action", "Action"
+
+
+class EventType(models.TextChoices):
+    """Events robots report (protocol v1, events[].type)."""
+
+    TASK_RECEIVED = "task_received", "Task received"
+    ARRIVED = "arrived", "Arrived"
+    LOADED = "loaded", "Loaded"
+    UNLOADED = "unloaded", "Unloaded"
+    TASK_COMPLETED = "task_completed", "Task completed"
+    TASK_FAILED = "task_failed", "Task failed"
+    RESOURCE_ENTERED = "resource_entered", "Resource entered"
+    RESOURCE_RELEASED = "resource_released", "Resource released"
+
+
+RESOURCE_EVENT_TYPES = {EventType.RESOURCE_ENTERED, EventType.RESOURCE_RELEASED}
+
+
+class RequestType(models.TextChoices):
+    """Requests robots make in heartbeats (protocol v1, requests[].type)."""
+
+    ACQUIRE = "acquire", "Acquire"
+    RELEASE = "release", "Release"

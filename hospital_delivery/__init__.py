@@ -1,0 +1,3 @@
+from hospital_delivery.celery import app as celery_app
+
+__all__ = ["celery_app"]

@@ -1,0 +1,20 @@
+from rest_framework import authentication, exceptions
+
+from hospital_delivery.models import ApiToken
+from hospital_delivery.tokens import bearer_token
+
+
+class ApiTokenAuthentication(authentication.BaseAuthentication):
+    """`Authorization: Bearer <token>` for users, tokens issued by `manage.py user_token`."""
+
+    def authenticate(self, request):
+        token = bearer_token(request.headers.get("Authorization"))
+        if token is None:
+            return None
+        api_token = ApiToken.objects.for_token(token).first()
+        if api_token is None or not api_token.user.is_active:
+            raise exceptions.AuthenticationFailed("invalid or revoked token")
+        return api_token.user, api_token
+
+    def authenticate_header(self, request):
+        return "Bearer"

@@ -1,0 +1,14 @@
+from robots.models.fleet import PresenceChange, Robot, RobotBoot
+from robots.models.sites import Edge, Floor, Resource, ResourceWaypoint, Site, Waypoint
+
+__all__ = [
+    "Edge",
+    "Floor",
+    "PresenceChange",
+    "Resource",
+    "ResourceWaypoint",
+    "Robot",
+    "RobotBoot",
+    "Site",
+    "Waypoint",
+]

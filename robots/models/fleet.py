@@ -1,0 +1,159 @@
+"""Robots: identity, credentials, the last state they reported and their presence."""
+
+from datetime import datetime, timedelta
+
+from django.core.validators import RegexValidator
+from django.db import models
+from django.db.models import Q
+from django.utils import timezone
+
+from hospital_delivery.tokens import token_hash
+from robots.choices import Presence, RobotStatus
+from robots.models.sites import Floor, Site, Waypoint
+
+ROBOT_CODE = RegexValidator(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,31}$", "letters, digits, _ . -")
+# Protocol v1: a robot is online while heartbeats arrive within this many intervals.
+ONLINE_INTERVALS = 3
+
+
+class RobotQuerySet(models.QuerySet):
+    def with_token(self, token: str):
+        return self.filter(token_hash=token_hash(token))
+
+
+class Robot(models.Model):
+    site = models.ForeignKey(Site, on_delete=models.PROTECT, related_name="robots")
+    code = models.CharField(max_length=32, unique=True, validators=[ROBOT_CODE])
+    name = models.CharField(max_length=200, blank=True)
+    dock = models.ForeignKey(Waypoint, on_delete=models.PROTECT, related_name="docked_robots")
+    capacity = models.PositiveSmallIntegerField(default=4, help_text="items it can carry")
+    token_hash = models.CharField(max_length=64, blank=True, editable=False)
+    token_issued_at = models.DateTimeField(null=True, blank=True, editable=False)
+
+    # Last state the robot reported (the newest heartbeat by boot_id + seq).
+    status = models.CharField(max_length=20, choices=RobotStatus, default=RobotStatus.UNKNOWN)
+    floor = models.ForeignKey(Floor, null=True, blank=True, on_delete=models.SET_NULL)
+    waypoint = models.ForeignKey(
+        Waypoint, null=True, blank=True, on_delete=models.SET_NULL, related_name="+"
+    )
+    x = models.FloatField(null=True, blank=True)
+    y = models.FloatField(null=True, blank=True)
+    heading = models.FloatField(null=True, blank=True)
+    battery = models.FloatField(null=True, blank=True)
+    load = models.PositiveSmallIntegerField(default=0)
+    plan_version = models.PositiveIntegerField(default=0, help_text="newest plan it applied")
+    errors = models.JSONField(default=list, blank=True)
+    reported_at = models.DateTimeField(null=True, blank=True)
+    boot_id = models.CharField(max_length=64, blank=True)
+    seq = models.BigIntegerField(null=True, blank=True)
+
+    # Presence: the stored value is what the last heartbeat or sweep recorded; the deadlines
+    # say when it changes next, so the sweep only touches rows whose deadline has passed.
+    presence = models.CharField(max_length=12, choices=Presence, default=Presence.OFFLINE)
+    last_seen_at = models.DateTimeField(null=True, blank=True)
+    unreachable_at = models.DateTimeField(null=True, blank=True)
+    offline_at = models.DateTimeField(null=True, blank=True)
+
+    objects = RobotQuerySet.as_manager()
+
+    class Meta:
+        ordering = ["code"]
+        constraints = [
+            models.UniqueConstraint(
+                fields=["token_hash"], condition=~Q(token_hash=""), name="robot_token_unique"
+            ),
+        ]
+        indexes = [
+            models.Index(fields=["presence", "unreachable_at"], name="robot_unreachable_due"),
+            models.Index(fields=["presence", "offline_at"], name="robot_offline_due"),
+        ]
+
+    def __str__(self):
+        return self.code
+
+    def presence_at(self, now: datetime) -> str:
+        """Presence as a pure function of the stored times (protocol v1, "Presence")."""
+        if self.last_seen_at is None:
+            return Presence.OFFLINE
+        if now < self.unreachable_at:
+            return Presence.ONLINE
+        if now < self.offline_at:
+            return Presence.UNREACHABLE
+        return Presence.OFFLINE
+
+    def mark_seen(self, now: datetime) -> str | None:
+        """Record a heartbeat at `now`; returns the previous presence if this changed it."""
+        previous = self.presence
+        self.last_seen_at = now
+        self.unreachable_at = now + timedelta(
+            seconds=ONLINE_INTERVALS * self.site.heartbeat_interval
+        )
+        self.offline_at = now + timedelta(seconds=self.site.offline_timeout)
+        self.presence = Presence.ONLINE
+        return previous if previous != Presence.ONLINE else None
+
+    def apply_state(self, state: dict, now: datetime) -> None:
+        """Store a validated `state` object of a heartbeat (floor/waypoint already resolved)."""
+        self.status = state["status"]
+        self.floor = state["floor"]
+        self.waypoint = state.get("waypoint")
+        self.x = state.get("x")
+        self.y = state.get("y")
+        self.heading = state.get("heading")
+        self.battery = state["battery"]
+        self.load = state["load"]
+        self.plan_version = state["plan_version"]
+        self.errors = state.get("errors", [])
+        self.reported_at = now
+
+    STATE_FIELDS = [
+        "status",
+        "floor",
+        "waypoint",
+        "x",
+        "y",
+        "heading",
+        "battery",
+        "load",
+        "plan_version",
+        "errors",
+        "reported_at",
+    ]
+    PRESENCE_FIELDS = ["presence", "last_seen_at", "unreachable_at", "offline_at"]
+
+
+class RobotBoot(models.Model):
+    """Every boot_id a robot has used: a heartbeat from an earlier boot is stale, not new."""
+
+    robot = models.ForeignKey(Robot, on_delete=models.CASCADE, related_name="boots")
+    boot_id = models.CharField(max_length=64)
+    first_seen_at = models.DateTimeField(default=timezone.now)
+
+    class Meta:
+        constraints = [
+            models.UniqueConstraint(fields=["robot", "boot_id"], name="robot_boot_unique"),
+        ]
+
+    def __str__(self):
+        return f"{self.robot.code} boot {self.boot_id}"
+
+
+class PresenceChange(models.Model):
+    """One flip of a robot's presence, by a heartbeat or by the sweep."""
+
+    class Cause(models.TextChoices):
+        HEARTBEAT = "heartbeat", "Heartbeat"
+        SWEEP = "sweep", "Sweep (deadline passed)"
+
+    robot = models.ForeignKey(Robot, on_delete=models.CASCADE, related_name="presence_changes")
+    at = models.DateTimeField()
+    old = models.CharField(max_length=12, choices=Presence)
+    new = models.CharField(max_length=12, choices=Presence)
+    cause = models.CharField(max_length=12, choices=Cause)
+
+    class Meta:
+        ordering = ["-at", "-id"]
+        indexes = [models.Index(fields=["robot", "-at"], name="presence_change_recent")]
+
+    def __str__(self):
+        return f"{self.robot.code}: {self.old} -> {self.new} at {self.at:%Y-%m-%d %H:%M:%S}"
