@@ -96,7 +96,7 @@ class RobotEvent(models.Model):
 
 
 class RobotRequest(models.Model):
-    """An acquire/release request a robot made, stored once by its id for the resource controller."""
+    """An acquire/release request of a robot, stored once by its id for the resource controller."""
 
     robot = models.ForeignKey("robots.Robot", on_delete=models.CASCADE, related_name="requests")
     request_id = models.CharField(max_length=64)

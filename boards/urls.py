@@ -1,3 +1,7 @@
 from django.urls import path
 
-urlpatterns = []
+from boards.views import HeartbeatView
+
+urlpatterns = [
+    path("robots/<str:robot>/heartbeat", HeartbeatView.as_view(), name="robot-heartbeat"),
+]

@@ -4,3 +4,6 @@ from django.apps import AppConfig
 class HospitalDeliveryConfig(AppConfig):
     name = "hospital_delivery"
     verbose_name = "Accounts and API tokens"
+
+    def ready(self):
+        from hospital_delivery import schema  # noqa: F401  (registers OpenAPI extensions)

@@ -3,7 +3,7 @@ which runs sync views several times faster than an ASGI server can (see README, 
 
 import os
 
-from channels.routing import ProtocolTypeRouter, URLRouter
+from channels.routing import ProtocolTypeRouter
 from django.core.asgi import get_asgi_application
 
 os.environ.setdefault("DJANGO_SETTINGS_MODULE", "hospital_delivery.settings")

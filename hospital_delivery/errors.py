@@ -21,7 +21,8 @@ ERROR_CODES = {
 
 
 def flatten_errors(detail, prefix: str = "") -> dict[str, list[str]]:
-    """{"state": {"battery": ["x"]}, "events": {2: {"type": ["y"]}}} -> {"state.battery": ["x"], ...}"""
+    """{"state": {"battery": ["x"]}, "events": {2: {"type": ["y"]}}}
+    -> {"state.battery": ["x"], "events[2].type": ["y"]}"""
     if isinstance(detail, dict):
         flat: dict[str, list[str]] = {}
         for key, value in detail.items():

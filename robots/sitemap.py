@@ -7,10 +7,19 @@ file bumps map_version, so a process notices a new map on the next robot row it 
 
 from threading import Lock
 
-from robots.graph import MapEdge, MapResource, MapWaypoint, SiteMap
+from robots.graph import (
+    MapEdge,
+    MapFloor,
+    MapResource,
+    MapWaypoint,
+    Router,
+    SiteMap,
+    site_map_build,
+)
 from robots.models import Edge, Floor, Resource, ResourceWaypoint, Site, Waypoint
 
 _cache: dict[int, SiteMap] = {}
+_routers: dict[int, Router] = {}
 _cache_lock = Lock()
 
 
@@ -26,25 +35,52 @@ def site_map(site: Site) -> SiteMap:
     return cached
 
 
+def router_for(site: Site) -> Router:
+    """The Router of `site`'s current map, shared per process so its searches are reused."""
+    current = site_map(site)
+    router = _routers.get(site.pk)
+    if router is None or router.site_map is not current:
+        router = _routers[site.pk] = Router(current)
+    return router
+
+
 def _load(site: Site) -> SiteMap:
-    floors = {f.code: (f.id, f.level) for f in Floor.objects.filter(site=site)}
-    floor_codes_by_id = {fid: code for code, (fid, _level) in floors.items()}
-    waypoints = {
-        wp.code: MapWaypoint(
+    floors = [
+        MapFloor(id=f.id, code=f.code, level=f.level, name=f.name)
+        for f in Floor.objects.filter(site=site)
+    ]
+    waypoints = _waypoints(site, {f.id: f for f in floors})
+    codes_by_id = {wp.id: wp.code for wp in waypoints}
+    return site_map_build(
+        site_id=site.pk,
+        map_version=site.map_version,
+        robot_speed=site.robot_speed,
+        floors=floors,
+        waypoints=waypoints,
+        edges=_edges(site, codes_by_id),
+        resources=_resources(site, codes_by_id),
+    )
+
+
+def _waypoints(site: Site, floors_by_id: dict[int, MapFloor]) -> list[MapWaypoint]:
+    return [
+        MapWaypoint(
             id=wp.id,
             code=wp.code,
             name=wp.name,
             kind=wp.kind,
-            floor=floor_codes_by_id[wp.floor_id],
-            level=floors[floor_codes_by_id[wp.floor_id]][1],
+            floor=floors_by_id[wp.floor_id].code,
+            level=floors_by_id[wp.floor_id].level,
             x=wp.x,
             y=wp.y,
         )
         for wp in Waypoint.objects.filter(site=site)
-    }
-    codes_by_id = {wp.id: wp.code for wp in waypoints.values()}
+    ]
+
+
+def _edges(site: Site, codes_by_id: dict[int, str]) -> list[MapEdge]:
     resource_codes = dict(Resource.objects.filter(site=site).values_list("id", "code"))
-    edges = tuple(
+    return [
         MapEdge(
             source=codes_by_id[e.source_id],
             target=codes_by_id[e.target_id],
@@ -53,14 +89,17 @@ def _load(site: Site) -> SiteMap:
             guarded_by=resource_codes.get(e.guarded_by_id),
         )
         for e in Edge.objects.filter(site=site).order_by("id")
-    )
+    ]
+
+
+def _resources(site: Site, codes_by_id: dict[int, str]) -> list[MapResource]:
     stops: dict[int, list[str]] = {}
     for resource_id, waypoint_id in ResourceWaypoint.objects.filter(
         resource__site=site
     ).values_list("resource_id", "waypoint_id"):
         stops.setdefault(resource_id, []).append(codes_by_id[waypoint_id])
-    resources = {
-        r.code: MapResource(
+    return [
+        MapResource(
             id=r.id,
             code=r.code,
             name=r.name,
@@ -71,20 +110,4 @@ def _load(site: Site) -> SiteMap:
             waypoints=tuple(sorted(stops.get(r.id, []))),
         )
         for r in Resource.objects.filter(site=site)
-    }
-    elevator_stops = {
-        r.code: {waypoints[wp].floor: wp for wp in r.waypoints}
-        for r in resources.values()
-        if r.is_elevator
-    }
-    return SiteMap(
-        site_id=site.pk,
-        map_version=site.map_version,
-        robot_speed=site.robot_speed,
-        floors={code: level for code, (_fid, level) in floors.items()},
-        floor_ids={code: fid for code, (fid, _level) in floors.items()},
-        waypoints=waypoints,
-        edges=edges,
-        resources=resources,
-        elevator_stops=elevator_stops,
-    )
+    ]

@@ -93,10 +93,10 @@ class Robot(models.Model):
         return previous if previous != Presence.ONLINE else None
 
     def apply_state(self, state: dict, now: datetime) -> None:
-        """Store a validated `state` object of a heartbeat (floor/waypoint already resolved)."""
+        """Store a validated heartbeat `state` (floor and waypoint resolved to ids)."""
         self.status = state["status"]
-        self.floor = state["floor"]
-        self.waypoint = state.get("waypoint")
+        self.floor_id = state["floor_id"]
+        self.waypoint_id = state.get("waypoint_id")
         self.x = state.get("x")
         self.y = state.get("y")
         self.heading = state.get("heading")

@@ -1,0 +1,187 @@
+"""The message board: what the server posts for each robot, and heartbeats that carry it.
+
+Every write for one robot happens with that robot's row locked (robots.services.robot_lock),
+so concurrent or duplicated heartbeats of one robot are applied one after the other.
+"""
+
+from dataclasses import dataclass, field
+from datetime import datetime
+
+from django.db import transaction
+from django.db.models import QuerySet
+from django.utils import timezone
+
+from boards.models import BoardMessage, RobotEvent, RobotRequest
+from boards.signals import heartbeat_applied
+from robots.models import Robot
+from robots.services import robot_heartbeat_record, robot_lock
+
+
+class HeartbeatRejected(Exception):
+    """Raised by a heartbeat_applied receiver to refuse a heartbeat; errors by field path."""
+
+    def __init__(self, errors: dict[str, list[str] | str]):
+        super().__init__(errors)
+        self.errors = errors
+
+
+@dataclass
+class AppliedHeartbeat:
+    """What one heartbeat changed, handed to heartbeat_applied receivers."""
+
+    robot: Robot
+    now: datetime
+    state_applied: bool
+    acked: list[BoardMessage] = field(default_factory=list)
+    events: list[RobotEvent] = field(default_factory=list)
+    requests: list[RobotRequest] = field(default_factory=list)
+
+
+@dataclass
+class HeartbeatReply:
+    server_time: datetime
+    heartbeat_interval: float
+    messages: list[BoardMessage]
+
+
+@transaction.atomic
+def heartbeat_apply(*, robot_id: int, heartbeat: dict, now: datetime | None = None):
+    """Apply one validated heartbeat (boards.serializers.HeartbeatSerializer) of a robot.
+
+    Acks and events are applied even when the heartbeat is stale (an older seq of the
+    current boot, or an earlier boot): they are idempotent. Its state is applied only if it
+    is the newest the server has seen.
+    """
+    now = now or timezone.now()
+    robot = robot_lock(robot_id)
+    acked = board_ack(robot=robot, public_ids=heartbeat["acks"], now=now)
+    events = _events_record(robot, heartbeat, now)
+    requests = _requests_record(robot, heartbeat["requests"], now)
+    state_applied = robot_heartbeat_record(
+        robot=robot,
+        boot_id=heartbeat["boot_id"],
+        seq=heartbeat["seq"],
+        state=heartbeat["state"],
+        now=now,
+    )
+    applied = AppliedHeartbeat(
+        robot=robot,
+        now=now,
+        state_applied=state_applied,
+        acked=acked,
+        events=events,
+        requests=requests,
+    )
+    heartbeat_applied.send(sender=AppliedHeartbeat, applied=applied)
+    return HeartbeatReply(
+        server_time=now,
+        heartbeat_interval=robot.site.heartbeat_interval,
+        messages=board_pending(robot=robot),
+    )
+
+
+def _events_record(robot: Robot, heartbeat: dict, now: datetime) -> list[RobotEvent]:
+    """Store the events not seen before, in the robot's order; return only those."""
+    incoming = _first_of_each_id(heartbeat["events"])
+    if not incoming:
+        return []
+    seen = set(
+        RobotEvent.objects.filter(robot=robot, event_id__in=list(incoming)).values_list(
+            "event_id", flat=True
+        )
+    )
+    new_events = [
+        RobotEvent(
+            robot=robot,
+            event_id=event_id,
+            type=event["type"],
+            at=event.get("at"),
+            task=event.get("task", ""),
+            stop=event.get("stop"),
+            resource=event.get("resource", ""),
+            data=event["raw"],
+            received_at=now,
+            boot_id=heartbeat["boot_id"],
+            seq=heartbeat["seq"],
+        )
+        for event_id, event in incoming.items()
+        if event_id not in seen
+    ]
+    return RobotEvent.objects.bulk_create(new_events)
+
+
+def _requests_record(robot: Robot, requests: list[dict], now: datetime) -> list[RobotRequest]:
+    incoming = _first_of_each_id(requests)
+    if not incoming:
+        return []
+    seen = set(
+        RobotRequest.objects.filter(robot=robot, request_id__in=list(incoming)).values_list(
+            "request_id", flat=True
+        )
+    )
+    new_requests = [
+        RobotRequest(
+            robot=robot,
+            request_id=request_id,
+            type=request["type"],
+            resource=request["resource"],
+            to_floor=request.get("to_floor", ""),
+            data=request["raw"],
+            received_at=now,
+        )
+        for request_id, request in incoming.items()
+        if request_id not in seen
+    ]
+    return RobotRequest.objects.bulk_create(new_requests)
+
+
+def _first_of_each_id(items: list[dict]) -> dict[str, dict]:
+    first: dict[str, dict] = {}
+    for item in items:
+        first.setdefault(item["id"], item)
+    return first
+
+
+def board_pending(*, robot: Robot) -> list[BoardMessage]:
+    """Messages on the robot's board, oldest first: what every heartbeat response carries."""
+    return list(BoardMessage.objects.pending().filter(robot=robot).order_by("id"))
+
+
+def board_ack(*, robot: Robot, public_ids: list[str], now: datetime) -> list[BoardMessage]:
+    """Take acked messages off the board; returns those this call took off (others ignored)."""
+    if not public_ids:
+        return []
+    acked = list(BoardMessage.objects.pending().filter(robot=robot).with_public_ids(public_ids))
+    if acked:
+        BoardMessage.objects.filter(pk__in=[m.pk for m in acked]).update(acked_at=now)
+        for message in acked:
+            message.acked_at = now
+    return acked
+
+
+def board_post(
+    *, robot: Robot, type: str, body: dict, key: str = "", supersede: bool = False
+) -> BoardMessage:
+    """Post a message for a robot; it goes out in every heartbeat response until acked.
+
+    With supersede, pending messages of the same robot and key are withdrawn first (a newer
+    plan replaces an unacked older one). Call with the robot row locked (robot_lock).
+    """
+    now = timezone.now()
+    if supersede:
+        board_withdraw(
+            messages=BoardMessage.objects.pending().filter(robot=robot, key=key),
+            reason="superseded",
+            now=now,
+        )
+    return BoardMessage.objects.create(robot=robot, type=type, body=body, key=key, posted_at=now)
+
+
+def board_withdraw(*, messages, reason: str, now: datetime | None = None) -> int:
+    """Take pending messages off the board without the robot acking them; returns how many."""
+    pks = messages.values("pk") if isinstance(messages, QuerySet) else [m.pk for m in messages]
+    return (
+        BoardMessage.objects.pending()
+        .filter(pk__in=pks)
+        .update(withdrawn_at=now or timezone.now(), withdraw_reason=reason)
+    )

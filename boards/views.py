@@ -1,0 +1,69 @@
+import json
+
+from django.conf import settings
+from drf_spectacular.utils import OpenApiResponse, extend_schema
+from rest_framework import exceptions, status
+from rest_framework.response import Response
+from rest_framework.views import APIView
+
+from boards.serializers import ErrorSerializer, HeartbeatResponseSerializer, HeartbeatSerializer
+from boards.services import HeartbeatRejected, heartbeat_apply
+from boards.wire import heartbeat_reply_wire
+from robots.authentication import IsRobotInUrl, RobotTokenAuthentication
+from robots.sitemap import site_map
+
+
+class PayloadTooLarge(exceptions.APIException):
+    status_code = status.HTTP_413_REQUEST_ENTITY_TOO_LARGE
+    default_detail = "request body is over the limit"
+    default_code = "too_large"
+
+
+def read_json_body(request, *, limit: int):
+    """The body parsed as JSON whatever its content type, refusing more than `limit` bytes."""
+    declared = request.META.get("CONTENT_LENGTH") or ""
+    if declared.isdigit() and int(declared) > limit:
+        raise PayloadTooLarge(f"body of {declared} bytes is over the {limit}-byte limit")
+    if not declared and request.META.get("wsgi.input_terminated"):
+        # A chunked body (no Content-Length), which Django would read as empty; the server
+        # (gunicorn) has de-chunked it and marks where it ends.
+        raw = request.META["wsgi.input"].read(limit + 1)
+    else:
+        raw = request.read(limit + 1)
+    if len(raw) > limit:
+        raise PayloadTooLarge(f"body is over the {limit}-byte limit")
+    try:
+        return json.loads(raw)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise exceptions.ParseError(f"body is not valid UTF-8 JSON: {exc}") from None
+
+
+class HeartbeatView(APIView):
+    """A robot reports its state and events and receives what is on its message board."""
+
+    authentication_classes = [RobotTokenAuthentication]
+    permission_classes = [IsRobotInUrl]
+    parser_classes = []  # read_json_body parses, to enforce the protocol's size limit
+
+    @extend_schema(
+        operation_id="robot_heartbeat",
+        request={"application/json": HeartbeatSerializer},
+        responses={
+            200: HeartbeatResponseSerializer,
+            400: OpenApiResponse(ErrorSerializer, description="malformed; nothing applied"),
+            401: OpenApiResponse(ErrorSerializer, description="missing or wrong token"),
+            403: OpenApiResponse(ErrorSerializer, description="another robot's token"),
+            413: OpenApiResponse(ErrorSerializer, description="body over 64 KiB"),
+        },
+        tags=["robots"],
+    )
+    def post(self, request, robot):
+        robot = request.auth
+        body = read_json_body(request, limit=settings.HEARTBEAT_MAX_BYTES)
+        serializer = HeartbeatSerializer(data=body, context={"site_map": site_map(robot.site)})
+        serializer.is_valid(raise_exception=True)
+        try:
+            reply = heartbeat_apply(robot_id=robot.pk, heartbeat=serializer.validated_data)
+        except HeartbeatRejected as rejected:
+            raise exceptions.ValidationError(rejected.errors) from None
+        return Response(heartbeat_reply_wire(reply))

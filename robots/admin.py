@@ -1,0 +1,206 @@
+"""Admin for sites and robots.
+
+The map (floors, waypoints, edges, resources) comes from site files (`manage.py load_site`),
+which validate the whole map; the admin shows it and lets operators fix names and site
+settings, never the geometry, which would bypass that validation and the routing caches.
+"""
+
+from django.contrib import admin, messages
+from django.db.models import F
+
+from robots.models import (
+    Edge,
+    Floor,
+    PresenceChange,
+    Resource,
+    ResourceWaypoint,
+    Robot,
+    Site,
+    Waypoint,
+)
+from robots.services import robot_token_issue
+
+MAP_NOTE = "Geometry is read-only here: edit the site file and run `manage.py load_site`."
+
+
+class ReadOnlyInline(admin.TabularInline):
+    extra = 0
+    can_delete = False
+    show_change_link = True
+
+    def has_add_permission(self, request, obj=None):
+        return False
+
+    def has_change_permission(self, request, obj=None):
+        return False
+
+
+class FloorInline(ReadOnlyInline):
+    model = Floor
+    fields = ["code", "level", "name"]
+
+
+@admin.register(Site)
+class SiteAdmin(admin.ModelAdmin):
+    list_display = ["code", "name", "robot_speed", "heartbeat_interval", "map_version", "loaded_at"]
+    search_fields = ["code", "name"]
+    readonly_fields = ["code", "map_version", "loaded_at"]
+    inlines = [FloorInline]
+    fieldsets = [
+        (None, {"fields": ["code", "name", "map_version", "loaded_at"]}),
+        (
+            "Robots and timing",
+            {
+                "fields": [
+                    "robot_speed",
+                    "heartbeat_interval",
+                    "ack_timeout",
+                    "offline_timeout",
+                    "battery_threshold",
+                ]
+            },
+        ),
+        ("Resource leases", {"fields": ["grant_timeout", "lease_hard_limit"]}),
+    ]
+
+    def has_add_permission(self, request):
+        return False  # sites come from site files
+
+    def save_model(self, request, obj, form, change):
+        # robot_speed changes travel times: make every process rebuild its routing cache.
+        obj.save()
+        if "robot_speed" in form.changed_data:
+            Site.objects.filter(pk=obj.pk).update(map_version=F("map_version") + 1)
+
+
+class MapAdmin(admin.ModelAdmin):
+    """Map rows: names may be edited, structure may not."""
+
+    editable_fields: list[str] = ["name"]
+
+    def get_readonly_fields(self, request, obj=None):
+        return [f.name for f in self.model._meta.fields if f.name not in self.editable_fields]
+
+    def has_add_permission(self, request):
+        return False
+
+    def has_delete_permission(self, request, obj=None):
+        return False
+
+
+@admin.register(Floor)
+class FloorAdmin(MapAdmin):
+    list_display = ["code", "level", "name", "site"]
+    list_filter = ["site"]
+    search_fields = ["code", "name"]
+
+
+@admin.register(Waypoint)
+class WaypointAdmin(MapAdmin):
+    list_display = ["code", "name", "kind", "floor", "x", "y", "site"]
+    list_filter = ["site", "kind", "floor"]
+    search_fields = ["code", "name"]
+    list_select_related = ["floor", "site"]
+
+
+@admin.register(Edge)
+class EdgeAdmin(MapAdmin):
+    editable_fields = []
+    list_display = ["source", "target", "length", "oneway", "guarded_by", "site"]
+    list_filter = ["site", "oneway", "guarded_by"]
+    search_fields = ["source__code", "target__code"]
+    list_select_related = ["source", "target", "guarded_by", "site"]
+
+
+class ResourceWaypointInline(ReadOnlyInline):
+    model = ResourceWaypoint
+    fields = ["waypoint"]
+    show_change_link = False
+    verbose_name = "waiting waypoint"
+
+
+@admin.register(Resource)
+class ResourceAdmin(MapAdmin):
+    list_display = ["code", "name", "kind", "capacity", "site"]
+    list_filter = ["site", "kind"]
+    search_fields = ["code", "name"]
+    inlines = [ResourceWaypointInline]
+
+
+class PresenceChangeInline(ReadOnlyInline):
+    model = PresenceChange
+    fields = ["at", "old", "new", "cause"]
+    show_change_link = False
+    max_num = 20
+    verbose_name_plural = "recent presence changes"
+
+
+@admin.register(Robot)
+class RobotAdmin(admin.ModelAdmin):
+    list_display = [
+        "code",
+        "site",
+        "presence",
+        "status",
+        "floor",
+        "waypoint",
+        "battery",
+        "load",
+        "capacity",
+        "last_seen_at",
+    ]
+    list_filter = ["site", "presence", "status"]
+    search_fields = ["code", "name"]
+    list_select_related = ["site", "floor", "waypoint"]
+    actions = ["issue_token"]
+    inlines = [PresenceChangeInline]
+    reported = [
+        "status",
+        "floor",
+        "waypoint",
+        "x",
+        "y",
+        "heading",
+        "battery",
+        "load",
+        "plan_version",
+        "errors",
+        "reported_at",
+        "boot_id",
+        "seq",
+    ]
+    presence_fields = ["presence", "last_seen_at", "unreachable_at", "offline_at"]
+    fieldsets = [
+        (None, {"fields": ["code", "name", "site", "dock", "capacity", "token_issued_at"]}),
+        ("Presence", {"fields": presence_fields}),
+        ("Last reported state", {"fields": reported}),
+    ]
+    readonly_fields = ["token_issued_at", *presence_fields, *reported]
+
+    def get_readonly_fields(self, request, obj=None):
+        # A robot's site and code are fixed once it exists: its history and tokens refer to them.
+        fixed = ["code", "site"] if obj is not None else []
+        return [*fixed, *self.readonly_fields]
+
+    @admin.action(description="Issue a new token (revokes the old one)")
+    def issue_token(self, request, queryset):
+        for robot in queryset:
+            token = robot_token_issue(robot=robot)
+            self.message_user(
+                request,
+                f"New token for {robot.code} (shown once, copy it now): {token}",
+                messages.WARNING,
+            )
+
+
+@admin.register(PresenceChange)
+class PresenceChangeAdmin(admin.ModelAdmin):
+    list_display = ["robot", "at", "old", "new", "cause"]
+    list_filter = ["new", "cause", "robot"]
+    date_hierarchy = "at"
+
+    def has_add_permission(self, request):
+        return False
+
+    def has_change_permission(self, request, obj=None):
+        return False

@@ -1,0 +1,94 @@
+"""Robots: credentials, the state they report, and presence (healthchecks' pattern).
+
+A heartbeat stores when the robot will become unreachable and offline; the sweep flips only
+rows whose deadline has passed, each flip claimed by a conditional UPDATE and recorded.
+"""
+
+from datetime import datetime
+
+from django.db import transaction
+from django.db.models import Q
+from django.utils import timezone
+
+from hospital_delivery.tokens import token_new
+from robots.choices import Presence
+from robots.models import PresenceChange, Robot, RobotBoot
+from robots.signals import presence_changed
+
+
+def robot_authenticate(*, token: str) -> Robot | None:
+    """The robot a bearer token belongs to, or None."""
+    return Robot.objects.with_token(token).select_related("site").first()
+
+
+@transaction.atomic
+def robot_token_issue(*, robot: Robot) -> str:
+    """Issue a new token for the robot, revoking the old one; returns it (show it once)."""
+    token, hashed = token_new()
+    robot.token_hash = hashed
+    robot.token_issued_at = timezone.now()
+    robot.save(update_fields=["token_hash", "token_issued_at"])
+    return token
+
+
+def robot_lock(robot_id: int) -> Robot:
+    """Lock the robot's row for the rest of the transaction: all its writes go through here."""
+    return Robot.objects.select_for_update().select_related("site").get(pk=robot_id)
+
+
+def robot_heartbeat_record(
+    *, robot: Robot, boot_id: str, seq: int, state: dict, now: datetime
+) -> bool:
+    """Record that a heartbeat arrived; store its state only if it is the newest.
+
+    Returns whether the state was applied. Call with the robot locked (robot_lock).
+    """
+    fresh = _heartbeat_is_newest(robot, boot_id, seq, now)
+    update_fields = list(Robot.PRESENCE_FIELDS)
+    if fresh:
+        robot.apply_state(state, now)
+        robot.boot_id, robot.seq = boot_id, seq
+        update_fields += [*Robot.STATE_FIELDS, "boot_id", "seq"]
+    previous = robot.mark_seen(now)
+    robot.save(update_fields=update_fields)
+    if previous is not None:
+        _presence_record(robot, old=previous, new=Presence.ONLINE, at=now, cause="heartbeat")
+    return fresh
+
+
+def _heartbeat_is_newest(robot: Robot, boot_id: str, seq: int, now: datetime) -> bool:
+    if boot_id == robot.boot_id:
+        return robot.seq is None or seq > robot.seq
+    if RobotBoot.objects.filter(robot=robot, boot_id=boot_id).exists():
+        return False  # a boot the robot has since left behind: a late heartbeat
+    RobotBoot.objects.create(robot=robot, boot_id=boot_id, first_seen_at=now)
+    return True
+
+
+def presence_sweep(*, now: datetime | None = None) -> int:
+    """Flip the presence of robots whose deadline has passed; returns how many flipped."""
+    now = now or timezone.now()
+    due = Robot.objects.filter(
+        Q(presence=Presence.ONLINE, unreachable_at__lte=now)
+        | Q(presence__in=[Presence.ONLINE, Presence.UNREACHABLE], offline_at__lte=now)
+    ).select_related("site")
+    return sum(presence_sweep_step(robot=robot, now=now) for robot in due)
+
+
+@transaction.atomic
+def presence_sweep_step(*, robot: Robot, now: datetime) -> int:
+    """Flip one robot read by the sweep, unless its row changed since it was read."""
+    new = robot.presence_at(now)
+    claimed = Robot.objects.filter(
+        pk=robot.pk, presence=robot.presence, last_seen_at=robot.last_seen_at
+    ).update(presence=new)
+    if not claimed:
+        return 0  # a heartbeat or another sweeper got there first
+    old, robot.presence = robot.presence, new
+    _presence_record(robot, old=old, new=new, at=now, cause=PresenceChange.Cause.SWEEP)
+    return 1
+
+
+def _presence_record(robot: Robot, *, old: str, new: str, at: datetime, cause: str) -> None:
+    PresenceChange.objects.create(robot=robot, at=at, old=old, new=new, cause=cause)
+    presence_changed.send(sender=Robot, robot=robot, old=old, new=new, at=at)

@@ -1,0 +1,654 @@
+"""Choose the robot that takes a new delivery task, and the order it then visits its stops in.
+
+The paper's scheduler (Sec. 3.1.2) costs every ordering of every robot's stops. Here a robot's
+route is solved exactly by dynamic programming over (stops done, last stop): Held-Karp where
+precedence and capacity decide which stops may come next. Offering a task to a robot solves its
+route without the task backwards, which gives the exact least travel left from every state, then
+solves the route with the task forwards, dropping every state that cannot beat the best offer so
+far. Across robots, a cheap lower bound on each robot's added travel skips robots that cannot win.
+Routes of more than EXACT_TASK_LIMIT tasks are planned by insertion and local search instead and
+are marked inexact.
+
+Pure: standard library only, so it can be tested and benchmarked without Django.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections import Counter
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from functools import cached_property
+
+EXACT_TASK_LIMIT = 6  # tasks in one route (held + new) that are still solved exactly
+TOLERANCE = 1e-9  # seconds; costs closer than this are treated as equal
+PICKUP = "pickup"
+DROPOFF = "dropoff"
+
+TravelTime = Callable[[str, str], float]
+
+
+@dataclass(frozen=True)
+class Stop:
+    task: str
+    index: int
+    place: str
+    action: str
+    load_change: int
+
+
+@dataclass(frozen=True)
+class TaskStops:
+    """The stops of one task that remain to be done (done stops are left out)."""
+
+    code: str
+    pickups: tuple[Stop, ...]
+    dropoffs: tuple[Stop, ...]
+
+
+@dataclass(frozen=True)
+class RobotRoute:
+    robot: str
+    start: str
+    load: int
+    capacity: int
+    tasks: tuple[TaskStops, ...]
+
+
+@dataclass(frozen=True)
+class Plan:
+    stops: tuple[Stop, ...]
+    cost: float
+    exact: bool
+
+
+@dataclass(frozen=True)
+class Allocation:
+    robot: str
+    plan: Plan
+    added_cost: float
+
+
+def best_plan(robot: RobotRoute, travel_time: TravelTime, *, extra: TaskStops | None = None):
+    """The cheapest order of the robot's remaining stops (and extra's); None if none is feasible.
+
+    Exact up to EXACT_TASK_LIMIT tasks, otherwise the result of insertion and local search.
+    """
+    return _plan(robot, robot.tasks + ((extra,) if extra else ()), _Travel(travel_time))
+
+
+def allocate(
+    task: TaskStops,
+    robots: Sequence[RobotRoute],
+    travel_time: TravelTime,
+    *,
+    metric: bool = True,
+) -> Allocation | None:
+    """The robot, and its new route, whose route grows least by taking `task`.
+
+    With metric travel times (shortest paths obey the triangle inequality) lower bounds prune
+    the search; pass metric=False for times that may not. Ties go to the smallest robot code.
+    """
+    travel = _Travel(travel_time)
+    bounds = {robot.robot: _lower_bound(task, robot, travel) if metric else 0.0 for robot in robots}
+    metric = metric and not travel.saw_infinity
+    best = None
+    for robot in sorted(robots, key=lambda robot: (bounds[robot.robot], robot.robot)):
+        if metric and best and bounds[robot.robot] > best.added_cost + TOLERANCE:
+            break
+        margin = best.added_cost if best else math.inf
+        offer = _offer(task, robot, travel, margin=margin, metric=metric)
+        if offer and _is_better(offer, best):
+            best = offer
+    return best
+
+
+def added_cost_lower_bound(task: TaskStops, robot: RobotRoute, travel_time: TravelTime) -> float:
+    """A lower bound on how much `task` lengthens the robot's best route (metric times only)."""
+    return _lower_bound(task, robot, _Travel(travel_time))
+
+
+def cheapest_insertion(
+    robot: RobotRoute, order: Sequence[Stop], task: TaskStops, travel_time: TravelTime
+) -> Plan | None:
+    """`order` with the task's pick-ups and its drop-offs inserted, each as one block, where they
+    lengthen it least without overloading the robot; None if they fit nowhere."""
+    return _inserted(robot, order, task, _Travel(travel_time))
+
+
+def enumerate_best_plan(
+    robot: RobotRoute,
+    travel_time: TravelTime,
+    *,
+    extra: TaskStops | None = None,
+    deadline: float | None = None,
+) -> Plan | None:
+    """The paper's brute force: cost every ordering of the stops, keep the cheapest.
+
+    Orderings that break precedence or capacity are abandoned as soon as they do. Raises
+    TimeoutError once time.perf_counter() passes `deadline`.
+    """
+    tasks = robot.tasks + ((extra,) if extra else ())
+    problem = _problem(robot, tasks, _Travel(travel_time))
+    found = _Enumeration(problem, deadline).run()
+    return found and _as_plan(problem, *found)
+
+
+def route_cost(start: str, stops: Sequence[Stop], travel_time: TravelTime) -> float:
+    places = [start, *(stop.place for stop in stops)]
+    return sum(travel_time(a, b) for a, b in zip(places, places[1:], strict=False))
+
+
+class _Travel(dict):
+    """travel_time memoised per origin: self[a][b]."""
+
+    def __init__(self, travel_time: TravelTime):
+        super().__init__()
+        self.travel_time = travel_time
+        self.saw_infinity = False
+
+    def __missing__(self, origin: str) -> _Row:
+        row = self[origin] = _Row(origin, self)
+        return row
+
+
+class _Row(dict):
+    def __init__(self, origin: str, travel: _Travel):
+        super().__init__()
+        self.origin = origin
+        self.travel = travel
+
+    def __missing__(self, destination: str) -> float:
+        seconds = self[destination] = float(self.travel.travel_time(self.origin, destination))
+        if not math.isfinite(seconds):
+            self.travel.saw_infinity = True
+        return seconds
+
+
+def _is_better(offer: Allocation, best: Allocation | None) -> bool:
+    if best is None or offer.added_cost < best.added_cost - TOLERANCE:
+        return True
+    return offer.added_cost <= best.added_cost + TOLERANCE and offer.robot < best.robot
+
+
+def _offer(task, robot, travel, *, margin: float, metric: bool) -> Allocation | None:
+    """The robot's route with the task, if that adds at most `margin` (within tolerance)."""
+    if len(robot.tasks) + 1 > EXACT_TASK_LIMIT:
+        return _heuristic_offer(task, robot, travel)
+    problem = _problem(robot, (*robot.tasks, task), travel)
+    held = len(problem.stops) - len(task.pickups) - len(task.dropoffs)
+    base = _Finishing(problem.first(held))
+    if base.cost is None:
+        return None
+    if metric and not travel.saw_infinity:
+        limit = base.cost + margin if margin < math.inf else _insertion_cost(task, robot, base)
+        found = _held_karp(problem, limit, _savings(problem, held), base.tail(problem.times))
+    else:
+        found = _held_karp(problem, base.cost + margin, _least_arrivals(problem))
+    return found and Allocation(robot.robot, _as_plan(problem, *found), found[0] - base.cost)
+
+
+def _insertion_cost(task, robot, base: _Finishing) -> float:
+    """A feasible route's cost, to prune the exact search before any offer is known."""
+    order = [base.problem.stops[j] for j in base.order()]
+    plan = _inserted(robot, order, task, base.problem.travel)
+    return plan.cost if plan else math.inf
+
+
+def _heuristic_offer(task, robot, travel) -> Allocation | None:
+    base = _plan(robot, robot.tasks, travel)
+    plan = base and _inserted(robot, base.stops, task, travel)
+    plan = plan and _improved(robot, plan, travel)
+    return plan and Allocation(robot.robot, plan, plan.cost - base.cost)
+
+
+def _plan(robot: RobotRoute, tasks: tuple[TaskStops, ...], travel: _Travel) -> Plan | None:
+    if len(tasks) <= EXACT_TASK_LIMIT:
+        problem = _problem(robot, tasks, travel)
+        found = _held_karp(problem, math.inf, _least_arrivals(problem))
+        return found and _as_plan(problem, *found)
+    earlier = _plan(robot, tasks[:-1], travel)
+    plan = earlier and _inserted(robot, earlier.stops, tasks[-1], travel)
+    return plan and _improved(robot, plan, travel)
+
+
+# Exact: Held-Karp with precedence and capacity.
+
+
+@dataclass
+class _Problem:
+    """A route's stops by number: point 0 is the start, point j + 1 is stops[j]."""
+
+    travel: _Travel
+    stops: list[Stop]
+    times: list[list[float]]  # times[a][b]: travel from point a to point b
+    needs: list[int]  # per stop, the bitmask of stops that must come before it
+    changes: list[int]
+    load: int
+    capacity: int
+
+    def first(self, count: int) -> _Problem:
+        """The same route with only its first `count` stops."""
+        times = [row[: count + 1] for row in self.times[: count + 1]]
+        changes = self.changes[:count]
+        stops, needs = self.stops[:count], self.needs[:count]
+        return _Problem(self.travel, stops, times, needs, changes, self.load, self.capacity)
+
+    @cached_property
+    def into(self) -> list[list[float]]:
+        """into[j][a]: travel from point a to stop j."""
+        return [[row[j + 1] for row in self.times] for j in range(len(self.stops))]
+
+    @cached_property
+    def unlocks(self) -> list[list[int]]:
+        """unlocks[j]: the stops that need stop j first."""
+        return [[d for d, need in enumerate(self.needs) if need >> j & 1] for j in self.numbers]
+
+    @property
+    def numbers(self) -> range:
+        return range(len(self.stops))
+
+    def first_ready(self) -> list[int]:
+        return [j for j, need in enumerate(self.needs) if not need]
+
+    def ready_after(self, ready: list[int], j: int, done: int) -> list[int]:
+        """The stops that may come next once stop j is done too (`done` includes j)."""
+        unlocked = [d for d in self.unlocks[j] if not self.needs[d] & ~done]
+        return [i for i in ready if i != j] + unlocked
+
+
+def _problem(robot: RobotRoute, tasks: Sequence[TaskStops], travel: _Travel) -> _Problem:
+    stops, needs = [], []
+    for task in tasks:
+        pickups = ((1 << len(task.pickups)) - 1) << len(stops)
+        stops += task.pickups + task.dropoffs
+        needs += [0] * len(task.pickups) + [pickups] * len(task.dropoffs)
+    places = [robot.start, *(stop.place for stop in stops)]
+    times = [[row[place] for place in places] for row in map(travel.__getitem__, places)]
+    changes = [stop.load_change for stop in stops]
+    return _Problem(travel, stops, times, needs, changes, robot.load, robot.capacity)
+
+
+def _as_plan(problem: _Problem, cost: float, order: list[int]) -> Plan:
+    return Plan(tuple(problem.stops[j] for j in order), cost, exact=True)
+
+
+def _held_karp(problem: _Problem, limit: float, lower: list[float], tail=None):
+    """The cheapest feasible order costing at most `limit`, as (cost, stop numbers); else None.
+
+    Layer m holds, for each set of m stops that can be done first, the cheapest way found to
+    have done them ending at each of them. A state is dropped when its cost plus a lower bound
+    on the travel still to come exceeds the limit: the sum of `lower` over the stops left, plus
+    tail(done, last) when given.
+    """
+    if not 0 <= problem.load <= problem.capacity or math.inf in lower:
+        return None
+    states = {0: (problem.load, sum(lower), problem.first_ready())}
+    layers = [{0: {0: 0.0}}]
+    bound = min(limit + TOLERANCE, sys.float_info.max)  # so that infinite costs never pass
+    for _ in problem.stops:
+        layers.append(_next_layer(problem, layers[-1], states, lower, bound, tail))
+        if not layers[-1]:
+            return None
+    ((done, ends),) = layers[-1].items()
+    last = min(ends, key=ends.__getitem__)
+    return ends[last], _walk_back(problem, layers, done, last)
+
+
+def _least_arrivals(problem: _Problem) -> list[float]:
+    """Per stop, the least travel time into it from any point that may precede it."""
+    arrivals = []
+    for j, need in enumerate(problem.needs):
+        before = [0] if need == 0 else []
+        before += [i + 1 for i, other in enumerate(problem.needs) if i != j and not other >> j & 1]
+        arrivals.append(min((problem.times[i][j + 1] for i in before), default=math.inf))
+    return arrivals
+
+
+def _next_layer(problem, layer, states, lower, bound, tail):
+    """Extend every state of `layer` by one stop. The hot loop, so written for speed.
+
+    states[done] = (load on board, sum of `lower` over the stops left, stops that may come next).
+    """
+    into, changes, capacity = problem.into, problem.changes, problem.capacity
+    following: dict[int, dict[int, float]] = {}
+    for done, ends in layer.items():
+        load, rest, ready = states[done]
+        for j in ready:
+            new_load = load + changes[j]
+            if not 0 <= new_load <= capacity:
+                continue
+            column, cost = into[j], math.inf
+            for last, so_far in ends.items():
+                if (arrival := so_far + column[last]) < cost:
+                    cost = arrival
+            rest_after = rest - lower[j]
+            key, point = done | 1 << j, j + 1
+            if cost + rest_after > bound or (tail and cost + rest_after + tail(key, point) > bound):
+                continue
+            reached = following.get(key)
+            if reached is None:
+                following[key] = {point: cost}
+                states[key] = (new_load, rest_after, problem.ready_after(ready, j, key))
+            elif cost < reached.get(point, math.inf):
+                reached[point] = cost
+    return following
+
+
+def _walk_back(problem: _Problem, layers, done: int, point: int) -> list[int]:
+    """The stops, in order, of the cheapest way found to reach (done, point)."""
+    order, cost = [], layers[-1][done][point]
+    for layer in reversed(layers[:-1]):
+        order.append(point - 1)
+        done ^= 1 << (point - 1)
+        point = _predecessor(layer[done], problem.into[point - 1], cost)
+        cost = layer[done][point]
+    return order[::-1]
+
+
+def _predecessor(ends: dict[int, float], column: list[float], cost: float) -> int:
+    return min(ends, key=lambda last: abs(ends[last] + column[last] - cost))
+
+
+class _Finishing:
+    """Held-Karp run backwards: the least travel to finish the route from each (done, last).
+
+    From the start that is the best route's cost. For a longer route holding these stops and a
+    new task's, leaving the new stops out of what remains of it gives one of these routes' ends,
+    no longer under the triangle inequality; so it bounds the longer route's remaining travel.
+    """
+
+    def __init__(self, problem: _Problem):
+        self.problem = problem
+        self.full = (1 << len(problem.stops)) - 1
+        self.states: dict[int, tuple[int, list[int]]] = {}  # done -> (load, stops that may come)
+        self.choices: dict[int, list[tuple[int, float]]] = {}  # done -> [(next point, to finish)]
+        self.finish: dict[int, dict[int, float]] = {}  # done -> {last point: to finish}
+        if 0 <= problem.load <= problem.capacity:
+            self._sweep(self._reachable())
+
+    @property
+    def cost(self) -> float | None:
+        cost = self.finish.get(0, {}).get(0, math.inf)
+        return cost if cost < math.inf else None
+
+    def order(self) -> list[int]:
+        done, point, order = 0, 0, []
+        while done != self.full:
+            point = _cheapest_choice(self.choices[done], self.problem.times[point])
+            order.append(point - 1)
+            done |= 1 << (point - 1)
+        return order
+
+    def tail(self, times: list[list[float]]) -> Callable[[int, int], float]:
+        """tail(done, point) for a longer route whose first stops are these, with `times`."""
+        finish, choices, full, held = self.finish, self.choices, self.full, len(self.problem.stops)
+        from_new: dict[tuple[int, int], float] = {}
+
+        def tail(done: int, point: int) -> float:
+            done &= full
+            if point <= held:
+                row = finish.get(done)
+                return row.get(point, 0.0) if row else 0.0
+            if (done, point) not in from_new:
+                row = times[point]
+                onward = (row[p] + rest for p, rest in choices.get(done, ()))
+                from_new[done, point] = min(onward, default=0.0)
+            return from_new[done, point]
+
+        return tail
+
+    def _reachable(self) -> list[dict[int, set[int]]]:
+        """Per layer, the sets of stops that can be done first, and the stops they can end at."""
+        problem, states = self.problem, self.states
+        changes, capacity = problem.changes, problem.capacity
+        states[0] = (problem.load, problem.first_ready())
+        layers = [{0: {0}}]
+        for _ in problem.stops:
+            following: dict[int, set[int]] = {}
+            for done in layers[-1]:
+                load, ready = states[done]
+                for j in ready:
+                    new_load = load + changes[j]
+                    if not 0 <= new_load <= capacity:
+                        continue
+                    key = done | 1 << j
+                    lasts = following.get(key)
+                    if lasts is None:
+                        following[key] = {j + 1}
+                        states[key] = (new_load, problem.ready_after(ready, j, key))
+                    else:
+                        lasts.add(j + 1)
+            layers.append(following)
+        return layers
+
+    def _sweep(self, layers: list[dict[int, set[int]]]) -> None:
+        times, finish = self.problem.times, self.finish
+        for lasts in layers[-1].values():
+            finish[self.full] = dict.fromkeys(lasts, 0.0)
+        for layer in reversed(layers[:-1]):
+            for done, lasts in layer.items():
+                choices = self._choices(done)
+                if choices:
+                    self.choices[done] = choices
+                    finish[done] = {
+                        last: min([times[last][point] + rest for point, rest in choices])
+                        for last in lasts
+                    }
+
+    def _choices(self, done: int) -> list[tuple[int, float]]:
+        """The stops that may come next after `done`, with the least travel to finish from them."""
+        load, ready = self.states[done]
+        changes, capacity, finish = self.problem.changes, self.problem.capacity, self.finish
+        choices = []
+        for j in ready:
+            after = finish.get(done | 1 << j)
+            if after is not None and 0 <= load + changes[j] <= capacity:
+                choices.append((j + 1, after[j + 1]))
+        return choices
+
+
+def _cheapest_choice(choices: list[tuple[int, float]], row: list[float]) -> int:
+    return min(choices, key=lambda choice: row[choice[0]] + choice[1])[0]
+
+
+def _savings(problem: _Problem, held: int) -> list[float]:
+    """Per stop, 0 for the held ones and for each new one the least that leaving it out saves.
+
+    Taking a stop s out from between points a and b saves t(a,s) + t(s,b) - t(a,b), or t(a,s)
+    when s comes last, which only stops that no other stop waits for can. Taking out the new
+    task's pick-ups, then its drop-offs, from what is left of a route leaves what is left of a
+    route of the held stops alone; hence these bound the travel left from below, with tail().
+    """
+    count = len(problem.stops)
+    savings = [0.0] * held
+    for j in range(held, count):
+        point, into, onward = j + 1, problem.into[j], problem.times[j + 1]
+        before = [a for a in range(count + 1) if a != point]
+        after = [b for b in range(1, count + 1) if b != point]
+        least = min(into[a] for a in before) if not problem.unlocks[j] else math.inf
+        for a in before:
+            row = problem.times[a]
+            detour = min((onward[b] - row[b] for b in after), default=math.inf)
+            least = min(least, into[a] + detour)
+        savings.append(max(least, 0.0))
+    return savings
+
+
+# The paper's method, kept as the reference.
+
+
+class _Enumeration:
+    CHECK_EVERY = 4096  # complete orderings between looks at the clock
+
+    def __init__(self, problem: _Problem, deadline: float | None):
+        self.problem = problem
+        self.deadline = deadline
+        self.full = (1 << len(problem.stops)) - 1
+        self.best: tuple[float, list[int]] | None = None
+        self.leaves = 0
+
+    def run(self) -> tuple[float, list[int]] | None:
+        if 0 <= self.problem.load <= self.problem.capacity:
+            self._visit(0, 0, self.problem.load, 0.0, [])
+        return self.best
+
+    def _visit(self, point: int, done: int, load: int, cost: float, order: list[int]) -> None:
+        if done == self.full:
+            self._finish(cost, order)
+            return
+        problem = self.problem
+        for j, need in enumerate(problem.needs):
+            new_load = load + problem.changes[j]
+            if done >> j & 1 or need & ~done or not 0 <= new_load <= problem.capacity:
+                continue
+            order.append(j)
+            self._visit(j + 1, done | 1 << j, new_load, cost + problem.times[point][j + 1], order)
+            order.pop()
+
+    def _finish(self, cost: float, order: list[int]) -> None:
+        if cost < math.inf and (self.best is None or cost < self.best[0]):
+            self.best = (cost, list(order))
+        self.leaves += 1
+        checks_clock = self.deadline and self.leaves % self.CHECK_EVERY == 0
+        if checks_clock and time.perf_counter() > self.deadline:
+            raise TimeoutError("enumeration passed its deadline")
+
+
+# Lower bound on added travel.
+
+
+def _lower_bound(task: TaskStops, robot: RobotRoute, travel: _Travel) -> float:
+    """Travel the task must add to any route of the robot, if times obey the triangle inequality.
+
+    Take the best route with the task and remove its new pick-ups, then its new drop-offs: what
+    is left is a valid route without the task, so costs at least the best one. Removing stop s
+    from between a and b saves t(a,s) + t(s,b) - t(a,b) (or t(a,s) when s was last), at least
+    the least such saving over every pair of points that could have been its neighbours.
+    """
+    held = list(dict.fromkeys(stop.place for held in robot.tasks for stop in _stops(held)))
+    pickups = [stop.place for stop in task.pickups]
+    dropoffs = [stop.place for stop in task.dropoffs]
+    bound = 0.0
+    for i, place in enumerate(pickups):
+        others = pickups[:i] + pickups[i + 1 :]
+        before, after = [robot.start, *held, *others], [*held, *others, *dropoffs]
+        bound += _least_saving(place, before, after, travel, may_be_last=False)
+    for i, place in enumerate(dropoffs):
+        others = dropoffs[:i] + dropoffs[i + 1 :]
+        before, after = [robot.start, *held, *others], [*held, *others]
+        bound += _least_saving(place, before, after, travel, may_be_last=True)
+    return bound
+
+
+def _stops(task: TaskStops) -> tuple[Stop, ...]:
+    return task.pickups + task.dropoffs
+
+
+def _least_saving(place, before, after, travel: _Travel, *, may_be_last: bool) -> float:
+    onward = travel[place]
+    for b in after:  # fill the memo before the comprehension below reads it
+        onward[b]  # noqa: B018
+    least = math.inf
+    for a in before:
+        row = travel[a]
+        into = row[place]
+        if may_be_last:
+            least = min(least, into)
+        least = min(least, into + min((onward[b] - row[b] for b in after), default=math.inf))
+    return max(least, 0.0)
+
+
+# Heuristic: block insertion, then or-opt.
+
+
+def _inserted(robot: RobotRoute, order: Sequence[Stop], task: TaskStops, travel: _Travel):
+    places = [robot.start, *(stop.place for stop in order)]
+    loads = _loads(robot.load, order)
+    pickups, dropoffs = [s.place for s in task.pickups], [s.place for s in task.dropoffs]
+    carried = sum(stop.load_change for stop in task.pickups)
+    best = None
+    for i in range(1, len(places) + 1):
+        peak = -math.inf
+        for j in range(i, len(places) + 1):
+            peak = max(peak, loads[j - 1])
+            if peak + carried > robot.capacity:
+                break
+            if i == j:
+                cost = _detour(places, i, pickups + dropoffs, travel)
+            else:
+                cost = _detour(places, i, pickups, travel) + _detour(places, j, dropoffs, travel)
+            if best is None or cost < best[0] - TOLERANCE:
+                best = (cost, i, j)
+    if best is None:
+        return None
+    _, i, j = best
+    stops = [*order[: i - 1], *task.pickups, *order[i - 1 : j - 1], *task.dropoffs, *order[j - 1 :]]
+    return _checked_plan(robot, stops, travel)
+
+
+def _loads(load: int, order: Sequence[Stop]) -> list[int]:
+    """Load on board on leaving the start, then each stop."""
+    loads = [load]
+    for stop in order:
+        loads.append(loads[-1] + stop.load_change)
+    return loads
+
+
+def _detour(places: list[str], i: int, block: list[str], travel: _Travel) -> float:
+    """Added travel of visiting `block` between places[i - 1] and places[i] (if any)."""
+    inside = sum(travel[a][b] for a, b in zip(block, block[1:], strict=False))
+    cost = travel[places[i - 1]][block[0]] + inside if block else 0.0
+    if block and i < len(places):
+        cost += travel[block[-1]][places[i]] - travel[places[i - 1]][places[i]]
+    return cost
+
+
+def _improved(robot: RobotRoute, plan: Plan, travel: _Travel) -> Plan:
+    """Or-opt: move runs of 1 to 3 stops elsewhere while that shortens the route."""
+    while True:
+        better = next(_better_moves(robot, plan, travel), None)
+        if better is None:
+            return plan
+        plan = better
+
+
+def _better_moves(robot: RobotRoute, plan: Plan, travel: _Travel):
+    stops = list(plan.stops)
+    for length in (1, 2, 3):
+        for i in range(len(stops) - length + 1):
+            run, rest = stops[i : i + length], stops[:i] + stops[i + length :]
+            for j in range(len(rest) + 1):
+                candidate = rest[:j] + run + rest[j:]
+                cost = _cost(robot.start, candidate, travel)
+                if cost < plan.cost - TOLERANCE and _is_feasible(robot, candidate):
+                    yield Plan(tuple(candidate), cost, exact=False)
+
+
+def _checked_plan(robot: RobotRoute, stops: list[Stop], travel: _Travel) -> Plan | None:
+    cost = _cost(robot.start, stops, travel)
+    if cost == math.inf or not _is_feasible(robot, stops):
+        return None
+    return Plan(tuple(stops), cost, exact=False)
+
+
+def _cost(start: str, stops: Sequence[Stop], travel: _Travel) -> float:
+    places = [start, *(stop.place for stop in stops)]
+    return sum(travel[a][b] for a, b in zip(places, places[1:], strict=False))
+
+
+def _is_feasible(robot: RobotRoute, stops: Sequence[Stop]) -> bool:
+    """Every drop-off after all its task's pick-ups, load within [0, capacity] throughout."""
+    waiting = Counter(stop.task for stop in stops if stop.action == PICKUP)
+    load = robot.load
+    for stop in stops:
+        if stop.action == PICKUP:
+            waiting[stop.task] -= 1
+        elif waiting[stop.task]:
+            return False
+        load += stop.load_change
+        if not 0 <= load <= robot.capacity:
+            return False
+    return 0 <= robot.load <= robot.capacity

@@ -1,0 +1,134 @@
+#!/usr/bin/env bash
+# THE run command: ./scripts/run.sh
+#
+# Installs what it needs (Python packages into .venv; Redis, and PostgreSQL when DATABASE_URL
+# names a local one, from Debian's packages when missing), prepares the database and static
+# files, loads the hospital site, then runs every process of the Procfile under honcho in the
+# foreground. Ctrl-C stops them all.
+#
+# Environment: DATABASE_URL (default: SQLite file db.sqlite3), REDIS_URL, PORT_HTTP (8000),
+# PORT_WS (8001), WEB_WORKERS (3), SITE_FILE (sites/eulji.yaml), SECRET_KEY (default: generated
+# once into var/secret_key).
+set -euo pipefail
+
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+# shellcheck source=scripts/lib.sh
+source scripts/lib.sh
+
+export PORT_HTTP="${PORT_HTTP:-8000}"
+export PORT_WS="${PORT_WS:-8001}"
+SITE_FILE="${SITE_FILE:-sites/eulji.yaml}"
+
+# is_local_url URL DEFAULT_PORT: URL points at this machine on DEFAULT_PORT (what we can start).
+is_local_url() {
+    local url="$1" port="$2"
+    [[ "${url}" =~ ^[a-z0-9+]+://([^/@]*@)?(127\.0\.0\.1|localhost)(:${port})?(/|$) ]]
+}
+
+ensure_services() {
+    if [[ -z "${REDIS_URL:-}" ]] || is_local_url "${REDIS_URL}" 6379; then
+        ensure_redis
+    else
+        log "REDIS_URL is not local; not starting Redis"
+    fi
+    case "${DATABASE_URL:-}" in
+        postgres://* | postgresql://* | pgsql://*)
+            if is_local_url "${DATABASE_URL}" 5432; then
+                ensure_postgres
+                ensure_local_postgres_database
+            fi
+            ;;
+    esac
+}
+
+# With DATABASE_URL=postgres://USER:PASSWORD@127.0.0.1:5432/NAME, create USER and NAME when
+# missing, so a fresh machine needs nothing by hand.
+ensure_local_postgres_database() {
+    local parts user password dbname
+    parts="$(python - "${DATABASE_URL}" <<'PY'
+import sys
+from urllib.parse import unquote, urlsplit
+
+url = urlsplit(sys.argv[1])
+print(unquote(url.username or ""), unquote(url.password or ""), unquote(url.path.lstrip("/")))
+PY
+)"
+    read -r user password dbname <<<"${parts}"
+    if [[ -n "${user}" && -n "${password}" && -n "${dbname}" ]]; then
+        ensure_postgres_database "${user}" "${password}" "${dbname}"
+    fi
+}
+
+ensure_secret_key() {
+    if [[ -n "${SECRET_KEY:-}" ]]; then
+        return 0
+    fi
+    local file=var/secret_key
+    if [[ ! -s "${file}" ]]; then
+        log "generating ${file}"
+        (
+            umask 077
+            python -c 'import secrets; print(secrets.token_urlsafe(50))' >"${file}.tmp"
+        )
+        mv "${file}.tmp" "${file}"
+    fi
+    chmod 600 "${file}"
+    SECRET_KEY="$(cat "${file}")"
+    export SECRET_KEY
+}
+
+check_ports_free() {
+    local port
+    for port in "${PORT_HTTP}" "${PORT_WS}"; do
+        if tcp_port_open 127.0.0.1 "${port}"; then
+            die "port ${port} on 127.0.0.1 is already in use (another ./scripts/run.sh?); set PORT_HTTP/PORT_WS to use others"
+        fi
+    done
+}
+
+# ---------------------------------------------------------------------------------------------
+# HOOKS: later work fills these in. Each runs after migrate/collectstatic/load_site, before the
+# processes start, and must be idempotent (run.sh runs them on every start).
+
+# HOOK demo users: create the demo accounts (e.g. an admin and a ward nurse) when missing.
+hook_create_demo_users() {
+    :
+}
+
+# HOOK robot tokens: issue API tokens for the simulated robots (e.g. into var/), for the fleet.
+hook_issue_robot_tokens() {
+    :
+}
+
+# HOOK simulated fleet: prepare whatever the `fleet:` Procfile line needs. The fleet process
+# itself is started by honcho: add a `fleet:` line to the Procfile.
+hook_prepare_fleet() {
+    :
+}
+# ---------------------------------------------------------------------------------------------
+
+mkdir -p var
+ensure_venv
+ensure_services
+ensure_secret_key
+check_ports_free
+
+log "migrating the database"
+python manage.py migrate --noinput
+log "collecting static files"
+python manage.py collectstatic --noinput -v 0
+log "loading site ${SITE_FILE}"
+python manage.py load_site "${SITE_FILE}"
+
+hook_create_demo_users
+hook_issue_robot_tokens
+hook_prepare_fleet
+
+cat >&2 <<EOF
+
+  hospital_delivery is starting: open http://127.0.0.1:${PORT_HTTP}/
+  (admin: http://127.0.0.1:${PORT_HTTP}/admin/, API docs: http://127.0.0.1:${PORT_HTTP}/api/docs/,
+   websockets on 127.0.0.1:${PORT_WS}). Ctrl-C stops everything.
+
+EOF
+exec "${VENV_DIR}/bin/honcho" start -f Procfile

@@ -1,0 +1,42 @@
+"""The heartbeat is the hot path: its query count is asserted, not just measured."""
+
+import pytest
+from django.test import Client
+
+from boards.services import board_post
+from tests import factories
+
+
+@pytest.fixture
+def post_heartbeat(robot):
+    client = Client()
+    url = f"/api/v1/robots/{robot.code}/heartbeat"
+
+    def post(body):
+        response = client.post(
+            url, body, content_type="application/json", HTTP_AUTHORIZATION=f"Bearer {robot.token}"
+        )
+        assert response.status_code == 200, response.content
+        return response.json()
+
+    post(factories.heartbeat_body(1))  # first contact: boot record, presence change, map cache
+    return post
+
+
+def test_it_answers_a_plain_heartbeat_in_six_queries(post_heartbeat, django_assert_num_queries):
+    # auth, savepoint, lock robot, update robot, read board, release savepoint
+    with django_assert_num_queries(6):
+        post_heartbeat(factories.heartbeat_body(2))
+
+
+def test_it_needs_four_more_queries_for_events_and_acks(
+    post_heartbeat, robot, django_assert_num_queries
+):
+    message = board_post(robot=robot, type="action", body={"action": "pause"})
+    body = factories.heartbeat_body(
+        3, acks=[message.public_id], events=[{"id": f"e-{n}", "type": "arrived"} for n in range(20)]
+    )
+
+    # + find acked messages, mark them acked, find events seen before, insert new events
+    with django_assert_num_queries(10):
+        post_heartbeat(body)

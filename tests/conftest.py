@@ -1,0 +1,59 @@
+import pytest
+import requests
+
+from tests import factories, servers
+
+
+class RobotHttp:
+    """A robot speaking protocol v1 to the live server over real HTTP."""
+
+    def __init__(self, base_url: str, robot):
+        self.url = f"{base_url}/api/v1/robots/{robot.code}/heartbeat"
+        self.robot = robot
+        self.session = requests.Session()
+
+    def post(self, body=None, *, token=None, raw: bytes | None = None, headers=None):
+        headers = {"Content-Type": "application/json", **(headers or {})}
+        token = self.robot.token if token is None else token
+        if token:
+            headers["Authorization"] = f"Bearer {token}"
+        if raw is None:
+            return self.session.post(self.url, json=body, headers=headers, timeout=30)
+        return self.session.post(self.url, data=raw, headers=headers, timeout=30)
+
+    def heartbeat(self, seq=1, **fields):
+        response = self.post(factories.heartbeat_body(seq, **fields))
+        assert response.status_code == 200, response.text
+        return response.json()
+
+
+@pytest.fixture
+def site(db):
+    return factories.site_create()
+
+
+@pytest.fixture
+def robot(site):
+    return factories.robot_create(site, "R1")
+
+
+@pytest.fixture
+def robot_http(live_server, robot):
+    return RobotHttp(live_server.url, robot)
+
+
+@pytest.fixture
+def staff(db):
+    return factories.staff_create()
+
+
+@pytest.fixture(scope="session")
+def gunicorn_url(django_db_setup, django_db_blocker):
+    """gunicorn with 2 sync workers on the test database, as run in production."""
+    with servers.gunicorn(workers=2) as url:
+        yield url
+
+
+@pytest.fixture
+def robot_gunicorn(gunicorn_url, transactional_db, robot):
+    return RobotHttp(gunicorn_url, robot)

@@ -1,0 +1,153 @@
+"""Builders shared by the tests. Sites are built through the real site loader."""
+
+import copy
+import itertools
+import uuid
+
+from django.contrib.auth import get_user_model
+
+from hospital_delivery.models import ApiToken
+from robots.models import Robot, Site
+from robots.services import robot_token_issue
+from robots.sites import site_load
+
+# A small three-floor hospital with one of each resource kind, and a corridor of capacity 2.
+TINY_SITE = {
+    "site": "tiny",
+    "name": "Tiny test hospital",
+    "robot_speed": 1.0,
+    "heartbeat_interval": 1.0,
+    "ack_timeout": 30,
+    "offline_timeout": 300,
+    "floors": [
+        {
+            "code": "1F",
+            "level": 1,
+            "waypoints": [
+                {"code": "1F-DOCK-1", "x": 0, "y": 0, "kind": "dock", "name": "Dock 1"},
+                {"code": "1F-DOCK-2", "x": 0, "y": 5, "kind": "dock", "name": "Dock 2"},
+                {"code": "1F-HALL", "x": 10, "y": 0},
+                {"code": "1F-PHARM", "x": 10, "y": 10, "kind": "station", "name": "Pharmacy"},
+                {"code": "1F-ELEV-WAIT", "x": 20, "y": 0, "kind": "resource_wait"},
+            ],
+            "edges": [
+                ["1F-DOCK-1", "1F-HALL"],
+                ["1F-DOCK-2", "1F-HALL"],
+                ["1F-HALL", "1F-PHARM"],
+                ["1F-HALL", "1F-ELEV-WAIT"],
+            ],
+        },
+        {
+            "code": "2F",
+            "level": 2,
+            "waypoints": [
+                {"code": "2F-ELEV-WAIT", "x": 20, "y": 0, "kind": "resource_wait"},
+                {"code": "2F-LAB-DOOR-N", "x": 20, "y": 10, "kind": "resource_wait"},
+                {"code": "2F-LAB-DOOR-S", "x": 20, "y": 12, "kind": "resource_wait"},
+                {"code": "2F-LAB", "x": 20, "y": 30, "kind": "station", "name": "Laboratory"},
+            ],
+            "edges": [
+                ["2F-ELEV-WAIT", "2F-LAB-DOOR-N"],
+                ["2F-LAB-DOOR-N", "2F-LAB-DOOR-S"],
+                ["2F-LAB-DOOR-S", "2F-LAB"],
+            ],
+        },
+        {
+            "code": "3F",
+            "level": 3,
+            "waypoints": [
+                {"code": "3F-ELEV-WAIT", "x": 20, "y": 0, "kind": "resource_wait"},
+                {"code": "3F-CORR-W", "x": 30, "y": 0, "kind": "resource_wait"},
+                {"code": "3F-CORR-MID", "x": 40, "y": 0},
+                {"code": "3F-CORR-E", "x": 50, "y": 0, "kind": "resource_wait"},
+                {"code": "3F-WARD", "x": 60, "y": 0, "kind": "station", "name": "Ward 3"},
+            ],
+            "edges": [
+                ["3F-ELEV-WAIT", "3F-CORR-W"],
+                ["3F-CORR-W", "3F-CORR-MID"],
+                ["3F-CORR-MID", "3F-CORR-E"],
+                ["3F-CORR-E", "3F-WARD"],
+            ],
+        },
+    ],
+    "resources": [
+        {
+            "code": "ELEV",
+            "kind": "elevator",
+            "capacity": 1,
+            "stops": {"1F": "1F-ELEV-WAIT", "2F": "2F-ELEV-WAIT", "3F": "3F-ELEV-WAIT"},
+            "seconds_per_floor": 2.5,
+            "overhead_seconds": 30,
+        },
+        {
+            "code": "DOOR-2F",
+            "kind": "door",
+            "capacity": 1,
+            "waiting": ["2F-LAB-DOOR-N", "2F-LAB-DOOR-S"],
+            "guards": [["2F-LAB-DOOR-N", "2F-LAB-DOOR-S"]],
+        },
+        {
+            "code": "CORR-3F",
+            "kind": "corridor",
+            "capacity": 2,
+            "waiting": ["3F-CORR-W", "3F-CORR-E"],
+            "guards": [["3F-CORR-W", "3F-CORR-MID"], ["3F-CORR-MID", "3F-CORR-E"]],
+        },
+    ],
+    "robots": [],
+}
+
+_robot_numbers = itertools.count(1)
+
+
+def site_create(**overrides) -> Site:
+    data = copy.deepcopy(TINY_SITE)
+    data.update(overrides)
+    return site_load(data=data)
+
+
+def robot_create(site: Site, code: str | None = None, **fields) -> Robot:
+    """A robot docked at the site's first dock; its plain token is on robot.token."""
+    fields.setdefault("dock", site.waypoints.filter(kind="dock").order_by("code").first())
+    fields.setdefault("capacity", 4)
+    robot = Robot.objects.create(site=site, code=code or f"R{next(_robot_numbers)}", **fields)
+    robot.token = robot_token_issue(robot=robot)
+    return robot
+
+
+def staff_create(username: str = "operator", **fields):
+    fields.setdefault("is_staff", True)
+    user = get_user_model().objects.create_user(username=username, password="pw-12345!", **fields)
+    user.api_token_plain = ApiToken.issue(user)
+    return user
+
+
+def heartbeat_body(seq: int = 1, *, boot_id: str = "boot-1", **overrides) -> dict:
+    state = {
+        "status": "idle",
+        "floor": "1F",
+        "waypoint": "1F-DOCK-1",
+        "x": 0.0,
+        "y": 0.0,
+        "heading": 0.0,
+        "battery": 0.9,
+        "load": 0,
+        "plan_version": 0,
+        "errors": [],
+    }
+    state.update(overrides.pop("state", {}))
+    body = {
+        "boot_id": boot_id,
+        "seq": seq,
+        "sent_at": "2026-11-22T09:14:03.120Z",
+        "state": state,
+        "events": [],
+        "acks": [],
+        "requests": [],
+    }
+    body.update(overrides)
+    return body
+
+
+def event_id() -> str:
+    return f"e-{uuid.uuid4().hex[:12]}"
