@@ -11,6 +11,7 @@ from django.db import transaction
 from django.db.models import QuerySet
 from django.utils import timezone
 
+from boards.events import wake_on_commit
 from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.signals import heartbeat_applied
 from robots.models import Robot
@@ -165,7 +166,8 @@ def board_post(
     """Post a message for a robot; it goes out in every heartbeat response until acked.
 
     With supersede, pending messages of the same robot and key are withdrawn first (a newer
-    plan replaces an unacked older one). Call with the robot row locked (robot_lock).
+    plan replaces an unacked older one). A robot with an open push channel is woken once the
+    transaction commits.
     """
     now = timezone.now()
     if supersede:
@@ -174,7 +176,9 @@ def board_post(
             reason="superseded",
             now=now,
         )
-    return BoardMessage.objects.create(robot=robot, type=type, body=body, key=key, posted_at=now)
+    message = BoardMessage.objects.create(robot=robot, type=type, body=body, key=key, posted_at=now)
+    wake_on_commit(robot_code=robot.code, message_id=message.public_id)
+    return message
 
 
 def board_withdraw(*, messages, reason: str, now: datetime | None = None) -> int:

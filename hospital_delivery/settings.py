@@ -156,12 +156,19 @@ CELERY_BROKER_CONNECTION_RETRY_ON_STARTUP = True
 CELERY_TIMEZONE = TIME_ZONE
 # Sweeps re-find anything a lost Celery message left behind, so none of them is critical alone.
 PRESENCE_SWEEP_SECONDS = env_int("PRESENCE_SWEEP_SECONDS", 1, minimum=1)
+SWEEP_SECONDS = env_int("SWEEP_SECONDS", 1, minimum=1)
+
+
+def _sweep(task: str, every: float) -> dict:
+    return {"task": task, "schedule": every, "options": {"expires": every * 5}}
+
+
 CELERY_BEAT_SCHEDULE = {
-    "robots-presence-sweep": {
-        "task": "robots.tasks.presence_sweep",
-        "schedule": float(PRESENCE_SWEEP_SECONDS),
-        "options": {"expires": PRESENCE_SWEEP_SECONDS * 5},
-    },
+    "robots-presence-sweep": _sweep("robots.tasks.presence_sweep", PRESENCE_SWEEP_SECONDS),
+    "robots-lease-sweep": _sweep("robots.tasks.lease_sweep", SWEEP_SECONDS),
+    "scheduling-due-sweep": _sweep("scheduling.tasks.due_sweep", SWEEP_SECONDS),
+    "scheduling-ack-timeout-sweep": _sweep("scheduling.tasks.ack_timeout_sweep", SWEEP_SECONDS),
+    "scheduling-recurring-sweep": _sweep("scheduling.tasks.recurring_sweep", 30),
 }
 
 LOG_LEVEL = env_str("LOG_LEVEL", "INFO")

@@ -8,7 +8,9 @@ settings, never the geometry, which would bypass that validation and the routing
 from django.contrib import admin, messages
 from django.db.models import F
 
+from robots.alerts import alert_acknowledge
 from robots.models import (
+    Alert,
     Edge,
     Floor,
     PresenceChange,
@@ -19,8 +21,6 @@ from robots.models import (
     Waypoint,
 )
 from robots.services import robot_token_issue
-
-MAP_NOTE = "Geometry is read-only here: edit the site file and run `manage.py load_site`."
 
 
 class ReadOnlyInline(admin.TabularInline):
@@ -204,3 +204,21 @@ class PresenceChangeAdmin(admin.ModelAdmin):
 
     def has_change_permission(self, request, obj=None):
         return False
+
+
+@admin.register(Alert)
+class AlertAdmin(admin.ModelAdmin):
+    list_display = ["raised_at", "kind", "message", "robot", "resource", "task", "acknowledged_at"]
+    list_filter = ["site", "kind", ("acknowledged_at", admin.EmptyFieldListFilter)]
+    search_fields = ["message", "task", "robot__code", "key"]
+    list_select_related = ["robot", "resource"]
+    readonly_fields = [f.name for f in Alert._meta.fields]
+    actions = ["acknowledge"]
+
+    def has_add_permission(self, request):
+        return False
+
+    @admin.action(description="Acknowledge")
+    def acknowledge(self, request, queryset):
+        count = sum(alert_acknowledge(alert=alert, user=request.user) for alert in queryset)
+        self.message_user(request, f"Acknowledged {count} alert(s).")

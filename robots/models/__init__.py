@@ -1,7 +1,10 @@
+from robots.models.alerts import Alert, AlertKind
 from robots.models.fleet import PresenceChange, Robot, RobotBoot
 from robots.models.sites import Edge, Floor, Resource, ResourceWaypoint, Site, Waypoint
 
 __all__ = [
+    "Alert",
+    "AlertKind",
     "Edge",
     "Floor",
     "PresenceChange",

@@ -1,0 +1,52 @@
+from django.conf import settings
+from django.db import models
+from django.db.models import Q
+from django.utils import timezone
+
+from robots.models.fleet import Robot
+from robots.models.sites import Resource, Site
+
+
+class AlertKind(models.TextChoices):
+    LEASE_HARD_LIMIT = "lease_hard_limit", "Robot silent inside a resource past the hard limit"
+    ENTERED_WITHOUT_GRANT = "entered_without_grant", "Robot entered a resource without a grant"
+    TASK_FAILED = "task_failed", "Delivery failed"
+    OFFLINE_WITH_LOAD = "offline_with_load", "Robot offline with items on board"
+    ROBOT_ERROR = "robot_error", "Robot reports an error"
+
+
+class AlertQuerySet(models.QuerySet):
+    def open(self):
+        return self.filter(acknowledged_at__isnull=True)
+
+
+class Alert(models.Model):
+    """Something an operator must see and acknowledge; shown on every page until then."""
+
+    site = models.ForeignKey(Site, on_delete=models.CASCADE, related_name="alerts")
+    kind = models.CharField(max_length=32, choices=AlertKind)
+    key = models.CharField(
+        max_length=200, help_text="one open alert per key: raising it again changes nothing"
+    )
+    message = models.TextField()
+    robot = models.ForeignKey(Robot, null=True, blank=True, on_delete=models.SET_NULL)
+    resource = models.ForeignKey(Resource, null=True, blank=True, on_delete=models.SET_NULL)
+    task = models.CharField(max_length=32, blank=True, help_text="task code, if about one")
+    raised_at = models.DateTimeField(default=timezone.now)
+    acknowledged_at = models.DateTimeField(null=True, blank=True)
+    acknowledged_by = models.ForeignKey(
+        settings.AUTH_USER_MODEL, null=True, blank=True, on_delete=models.SET_NULL
+    )
+
+    objects = AlertQuerySet.as_manager()
+
+    class Meta:
+        ordering = ["-raised_at", "-id"]
+        constraints = [
+            models.UniqueConstraint(
+                fields=["key"], condition=Q(acknowledged_at__isnull=True), name="alert_open_key"
+            ),
+        ]
+
+    def __str__(self):
+        return f"{self.get_kind_display()}: {self.message}"
