@@ -144,7 +144,9 @@ HEARTBEAT_MAX_BYTES = 64 * 1024
 CHANNEL_LAYERS = {
     "default": {
         "BACKEND": "channels_redis.pubsub.RedisPubSubChannelLayer",
-        "CONFIG": {"hosts": [REDIS_URL]},
+        # The prefix keeps two deployments (or test runs) sharing one Redis apart: pub/sub
+        # channels ignore Redis database numbers.
+        "CONFIG": {"hosts": [REDIS_URL], "prefix": env_str("CHANNELS_PREFIX", "hospital_delivery")},
     },
 }
 

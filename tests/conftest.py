@@ -1,5 +1,9 @@
+import os
+import uuid
+
 import pytest
 import requests
+from django.conf import settings
 
 from tests import factories, servers
 
@@ -25,6 +29,15 @@ class RobotHttp:
         response = self.post(factories.heartbeat_body(seq, **fields))
         assert response.status_code == 200, response.text
         return response.json()
+
+
+@pytest.fixture(scope="session", autouse=True)
+def channels_prefix():
+    """Pub/sub channels ignore Redis database numbers: keep this run's apart from any other."""
+    prefix = f"hdtest-{uuid.uuid4().hex[:8]}"
+    settings.CHANNEL_LAYERS["default"]["CONFIG"]["prefix"] = prefix
+    os.environ["CHANNELS_PREFIX"] = prefix  # for servers started as subprocesses
+    return prefix
 
 
 @pytest.fixture

@@ -1,0 +1,49 @@
+"""The robot push channel (protocol v1, "Push channel"): wake-ups only, never board contents."""
+
+from urllib.parse import parse_qs
+
+from channels.db import database_sync_to_async
+from channels.generic.websocket import AsyncJsonWebsocketConsumer
+
+from boards.events import robot_group
+from hospital_delivery.tokens import bearer_token
+from robots.services import robot_authenticate
+
+CLOSE_UNAUTHORIZED = 4401
+CLOSE_FORBIDDEN = 4403
+
+
+def token_of(scope) -> str | None:
+    """From `Authorization: Bearer <token>`, or `?token=` for clients that cannot set headers."""
+    headers = dict(scope.get("headers", []))
+    token = bearer_token(headers.get(b"authorization", b"").decode("latin-1"))
+    if token is None:
+        query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
+        token = (query.get("token") or [None])[0]
+    return token
+
+
+class RobotPushConsumer(AsyncJsonWebsocketConsumer):
+    async def connect(self):
+        code = self.scope["url_route"]["kwargs"]["robot"]
+        token = token_of(self.scope)
+        robot = await database_sync_to_async(robot_authenticate)(token=token) if token else None
+        # Accept first: a close code only reaches the client on an accepted socket.
+        await self.accept()
+        if robot is None:
+            await self.close(code=CLOSE_UNAUTHORIZED)
+        elif robot.code != code:
+            await self.close(code=CLOSE_FORBIDDEN)
+        else:
+            self.group = robot_group(code)
+            await self.channel_layer.group_add(self.group, self.channel_name)
+
+    async def disconnect(self, code):
+        if hasattr(self, "group"):
+            await self.channel_layer.group_discard(self.group, self.channel_name)
+
+    async def receive_json(self, content, **kwargs):
+        """Robots have nothing to say here: everything they report goes in heartbeats."""
+
+    async def robot_wake(self, event):
+        await self.send_json({"type": "wake", "message": event["message"]})
