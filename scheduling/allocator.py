@@ -21,6 +21,7 @@ from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from operator import sub
 
 EXACT_TASK_LIMIT = 6  # tasks in one route (held + new) that are still solved exactly
 TOLERANCE = 1e-9  # seconds; costs closer than this are treated as equal
@@ -71,7 +72,9 @@ class Allocation:
     added_cost: float
 
 
-def best_plan(robot: RobotRoute, travel_time: TravelTime, *, extra: TaskStops | None = None):
+def best_plan(
+    robot: RobotRoute, travel_time: TravelTime, *, extra: TaskStops | None = None
+) -> Plan | None:
     """The cheapest order of the robot's remaining stops (and extra's); None if none is feasible.
 
     Exact up to EXACT_TASK_LIMIT tasks, otherwise the result of insertion and local search.
@@ -92,11 +95,12 @@ def allocate(
     the search; pass metric=False for times that may not. Ties go to the smallest robot code.
     """
     travel = _Travel(travel_time)
-    bounds = {robot.robot: _lower_bound(task, robot, travel) if metric else 0.0 for robot in robots}
+    bounds = [_lower_bound(task, robot, travel) if metric else 0.0 for robot in robots]
     metric = metric and not travel.saw_infinity
     best = None
-    for robot in sorted(robots, key=lambda robot: (bounds[robot.robot], robot.robot)):
-        if metric and best and bounds[robot.robot] > best.added_cost + TOLERANCE:
+    for i in sorted(range(len(robots)), key=lambda i: (bounds[i], robots[i].robot)):
+        robot = robots[i]
+        if metric and best and bounds[i] > best.added_cost + TOLERANCE:
             break
         margin = best.added_cost if best else math.inf
         offer = _offer(task, robot, travel, margin=margin, metric=metric)
@@ -244,11 +248,8 @@ class _Problem:
     @cached_property
     def unlocks(self) -> list[list[int]]:
         """unlocks[j]: the stops that need stop j first."""
-        return [[d for d, need in enumerate(self.needs) if need >> j & 1] for j in self.numbers]
-
-    @property
-    def numbers(self) -> range:
-        return range(len(self.stops))
+        numbers = range(len(self.stops))
+        return [[d for d, need in enumerate(self.needs) if need >> j & 1] for j in numbers]
 
     def first_ready(self) -> list[int]:
         return [j for j, need in enumerate(self.needs) if not need]
@@ -355,9 +356,9 @@ def _predecessor(ends: dict[int, float], column: list[float], cost: float) -> in
 class _Finishing:
     """Held-Karp run backwards: the least travel to finish the route from each (done, last).
 
-    From the start that is the best route's cost. For a longer route holding these stops and a
-    new task's, leaving the new stops out of what remains of it gives one of these routes' ends,
-    no longer under the triangle inequality; so it bounds the longer route's remaining travel.
+    From the start, that is the best route's cost. It also bounds a longer route holding these
+    stops and a new task's: leaving the new stops out of what remains of that route, from any
+    of its states, gives a way to finish this one that is no longer (triangle inequality).
     """
 
     def __init__(self, problem: _Problem):
@@ -425,29 +426,29 @@ class _Finishing:
         return layers
 
     def _sweep(self, layers: list[dict[int, set[int]]]) -> None:
-        times, finish = self.problem.times, self.finish
+        """Fill `finish` from the last layer back. Hot, so written with plain loops."""
+        problem, finish = self.problem, self.finish
+        times, changes, capacity = problem.times, problem.changes, problem.capacity
         for lasts in layers[-1].values():
             finish[self.full] = dict.fromkeys(lasts, 0.0)
         for layer in reversed(layers[:-1]):
             for done, lasts in layer.items():
-                choices = self._choices(done)
-                if choices:
-                    self.choices[done] = choices
-                    finish[done] = {
-                        last: min([times[last][point] + rest for point, rest in choices])
-                        for last in lasts
-                    }
-
-    def _choices(self, done: int) -> list[tuple[int, float]]:
-        """The stops that may come next after `done`, with the least travel to finish from them."""
-        load, ready = self.states[done]
-        changes, capacity, finish = self.problem.changes, self.problem.capacity, self.finish
-        choices = []
-        for j in ready:
-            after = finish.get(done | 1 << j)
-            if after is not None and 0 <= load + changes[j] <= capacity:
-                choices.append((j + 1, after[j + 1]))
-        return choices
+                load, ready = self.states[done]
+                choices = []
+                for j in ready:
+                    after = finish.get(done | 1 << j)
+                    if after is not None and 0 <= load + changes[j] <= capacity:
+                        choices.append((j + 1, after[j + 1]))
+                if not choices:
+                    continue
+                self.choices[done] = choices
+                row = finish[done] = {}
+                for last in lasts:
+                    leaving, least = times[last], math.inf
+                    for point, rest in choices:
+                        if (total := leaving[point] + rest) < least:
+                            least = total
+                    row[last] = least
 
 
 def _cheapest_choice(choices: list[tuple[int, float]], row: list[float]) -> int:
@@ -549,15 +550,11 @@ def _stops(task: TaskStops) -> tuple[Stop, ...]:
 
 def _least_saving(place, before, after, travel: _Travel, *, may_be_last: bool) -> float:
     onward = travel[place]
-    for b in after:  # fill the memo before the comprehension below reads it
-        onward[b]  # noqa: B018
-    least = math.inf
-    for a in before:
+    leaving = [onward[b] for b in after]
+    least = min(travel[a][place] for a in before) if may_be_last else math.inf
+    for a in before if leaving else ():
         row = travel[a]
-        into = row[place]
-        if may_be_last:
-            least = min(least, into)
-        least = min(least, into + min((onward[b] - row[b] for b in after), default=math.inf))
+        least = min(least, row[place] + min(map(sub, leaving, map(row.__getitem__, after))))
     return max(least, 0.0)
 
 

@@ -1,0 +1,28 @@
+"""The benchmark's quick mode runs as CI would run it, and agrees with the brute force."""
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_it_runs_the_quick_benchmark_and_agrees_with_enumeration():
+    finished = subprocess.run(
+        [sys.executable, "bench/allocation.py", "--quick"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert finished.returncode == 0, finished.stdout + finished.stderr
+    agreed, compared = re.search(
+        r"agreement with enumeration: (\d+)/(\d+)", finished.stdout
+    ).groups()
+    assert int(compared) > 0
+    assert agreed == compared
+    rows = re.findall(r"^\s+\d+\s+\d\s.*\s(\d+)/(\d+)\s", finished.stdout, re.MULTILINE)
+    assert rows
+    assert all(agreed == compared for agreed, compared in rows)

@@ -1,0 +1,251 @@
+"""The allocator against the paper's brute force on seeded random hospitals. No database."""
+
+import math
+import random
+import subprocess
+import sys
+from collections import Counter
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+from bench.instances import Instance, building, many_to_one, one_to_many, one_to_one
+from bench.instances import random_instance as generated
+from scheduling.allocator import (
+    EXACT_TASK_LIMIT,
+    PICKUP,
+    RobotRoute,
+    added_cost_lower_bound,
+    allocate,
+    best_plan,
+    cheapest_insertion,
+    enumerate_best_plan,
+    route_cost,
+)
+
+ROOT = Path(__file__).resolve().parents[2]
+MOST_STOPS = 9  # per robot, new task included: keeps the brute force to well under a second
+SAME = 1e-9
+
+
+def random_instance(seed, **options) -> Instance:
+    """A generated instance, without robots too big for the brute force to check quickly."""
+    instance = generated(seed, **options)
+    small = [robot for robot in instance.robots if _stop_count(robot, instance.task) <= MOST_STOPS]
+    return replace(instance, robots=tuple(small))
+
+
+def _stop_count(robot, task) -> int:
+    tasks = (*robot.tasks, task)
+    return sum(len(each.pickups) + len(each.dropoffs) for each in tasks)
+
+
+# (tasks held, instances, share of held tasks on board): several hundred in all.
+SWEEP = [(0, 50, 0.4), (1, 70, 0.4), (2, 70, 0.4), (3, 50, 0.5), (4, 30, 0.7), (5, 25, 0.7)]
+
+
+def _instances(held, count, on_board):
+    for n in range(count):
+        yield random_instance(
+            held * 1000 + n,
+            robots=3,
+            held=held,
+            capacity=(2, 4),  # tight, so capacity often decides the order
+            on_board=on_board,
+            multi_stop=0.35,
+        )
+
+
+def _brute_force_allocation(instance: Instance):
+    """(added travel, robot) of least added travel by enumerating every ordering."""
+    offers = []
+    for robot in instance.robots:
+        base = enumerate_best_plan(robot, instance.travel_time)
+        plan = base and enumerate_best_plan(robot, instance.travel_time, extra=instance.task)
+        if plan:
+            offers.append((plan.cost - base.cost, robot.robot))
+    return min(offers, default=None)
+
+
+def assert_valid_route(robot: RobotRoute, plan, travel_time, *extra):
+    """Every remaining stop once, drop-offs after their pick-ups, load within capacity."""
+    expected = [stop for task in (*robot.tasks, *extra) for stop in task.pickups + task.dropoffs]
+    assert Counter(plan.stops) == Counter(expected)
+    waiting = Counter(stop.task for stop in plan.stops if stop.action == PICKUP)
+    load = robot.load
+    for stop in plan.stops:
+        if stop.action == PICKUP:
+            waiting[stop.task] -= 1
+        else:
+            assert waiting[stop.task] == 0, f"{stop} before its task's pick-ups"
+        load += stop.load_change
+        assert 0 <= load <= robot.capacity
+    assert plan.cost == pytest.approx(route_cost(robot.start, plan.stops, travel_time), abs=SAME)
+
+
+@pytest.mark.parametrize(("held", "count", "on_board"), SWEEP)
+def test_it_finds_each_robots_optimal_route_as_enumeration_does(held, count, on_board):
+    for instance in _instances(held, count, on_board):
+        for robot in instance.robots:
+            for extra in ((), (instance.task,)):
+                ours = best_plan(robot, instance.travel_time, extra=extra[0] if extra else None)
+                theirs = enumerate_best_plan(
+                    robot, instance.travel_time, extra=extra[0] if extra else None
+                )
+                assert (ours is None) == (theirs is None)
+                if ours:
+                    assert ours.cost == pytest.approx(theirs.cost, abs=SAME)
+                    assert ours.exact
+                    assert_valid_route(robot, ours, instance.travel_time, *extra)
+
+
+@pytest.mark.parametrize(("held", "count", "on_board"), SWEEP)
+def test_it_allocates_to_a_robot_of_least_added_cost(held, count, on_board):
+    for instance in _instances(held, count, on_board):
+        wanted = _brute_force_allocation(instance)
+        for metric in (True, False):
+            got = allocate(instance.task, instance.robots, instance.travel_time, metric=metric)
+            if wanted is None:
+                assert got is None
+                continue
+            assert got.added_cost == pytest.approx(wanted[0], abs=1e-6)
+            robot = next(robot for robot in instance.robots if robot.robot == got.robot)
+            assert_valid_route(robot, got.plan, instance.travel_time, instance.task)
+            assert got.plan.exact
+
+
+def test_it_allocates_like_enumeration_across_a_larger_fleet():
+    for seed in range(15):
+        instance = random_instance(9000 + seed, robots=12, held=(0, 2), multi_stop=0.2)
+        wanted = _brute_force_allocation(instance)
+        got = allocate(instance.task, instance.robots, instance.travel_time)
+        assert (got.added_cost, got.robot) == (pytest.approx(wanted[0], abs=1e-6), wanted[1])
+
+
+def test_it_never_bounds_above_the_exact_added_cost():
+    for seed in range(80):
+        instance = generated(seed, robots=4, held=(0, 3), capacity=(2, 5), multi_stop=0.35)
+        for robot in instance.robots:
+            base = best_plan(robot, instance.travel_time)
+            plan = base and best_plan(robot, instance.travel_time, extra=instance.task)
+            if plan:
+                bound = added_cost_lower_bound(instance.task, robot, instance.travel_time)
+                assert bound <= plan.cost - base.cost + SAME
+
+
+def test_it_plans_an_idle_robot_from_where_it_is():
+    site = building(_rng(1))
+    a, b, c, d = site.places[:4]
+    idle = RobotRoute("R-01", start=a, load=0, capacity=4, tasks=())
+    task = many_to_one("T-0001", [b, c], d)
+    plan = best_plan(idle, site.travel_time, extra=task)
+    cheapest = min(
+        site.travel_time(a, first) + site.travel_time(first, second) + site.travel_time(second, d)
+        for first, second in ((b, c), (c, b))
+    )
+    assert plan.cost == pytest.approx(cheapest, abs=SAME)
+    assert best_plan(idle, site.travel_time).cost == 0
+    assert allocate(task, [idle], site.travel_time).added_cost == pytest.approx(cheapest)
+
+
+def test_it_only_drops_off_a_task_already_on_board():
+    site = building(_rng(2))
+    a, b, c, d, e = site.places[:5]
+    on_board = one_to_many("T-0001", a, [b, c])
+    on_board = replace(on_board, pickups=())
+    robot = RobotRoute("R-01", start=d, load=2, capacity=2, tasks=(on_board,))
+    task = one_to_one("T-0002", e, a)
+    plan = allocate(task, [robot], site.travel_time).plan
+    assert_valid_route(robot, plan, site.travel_time, task)
+    assert plan.stops.index(task.pickups[0]) > plan.stops.index(on_board.dropoffs[0])
+
+
+def test_it_skips_a_robot_too_small_for_the_task():
+    site = building(_rng(3))
+    a, b, c, d = site.places[:4]
+    task = one_to_many("T-0001", a, [b, c, d])
+    small = RobotRoute("R-01", start=a, load=0, capacity=2, tasks=())
+    big = RobotRoute("R-02", start=site.places[-1], load=0, capacity=3, tasks=())
+    assert allocate(task, [small, big], site.travel_time).robot == "R-02"
+    assert allocate(task, [small], site.travel_time) is None
+
+
+def test_it_unloads_before_picking_up_when_the_robot_is_full():
+    site = building(_rng(4))
+    a, b, c, d = site.places[:4]
+    held = replace(one_to_many("T-0001", a, [b, c]), pickups=())
+    full = RobotRoute("R-01", start=d, load=2, capacity=2, tasks=(held,))
+    task = one_to_many("T-0002", d, [a, b])
+    plan = allocate(task, [full], site.travel_time).plan
+    assert set(plan.stops[:2]) == set(held.dropoffs)
+    assert allocate(task, [replace(full, load=3)], site.travel_time) is None
+
+
+def test_it_returns_none_without_robots():
+    site = building(_rng(5))
+    assert allocate(one_to_one("T-0001", *site.places[:2]), [], site.travel_time) is None
+
+
+def test_it_breaks_ties_by_robot_code():
+    site = building(_rng(6))
+    a, b, c = site.places[:3]
+    twins = [RobotRoute(code, start=a, load=0, capacity=2, tasks=()) for code in ("R-09", "R-03")]
+    chosen = {allocate(one_to_one("T-0001", b, c), twins, site.travel_time).robot for _ in "xyz"}
+    assert chosen == {"R-03"}
+
+
+def test_it_skips_robots_that_cannot_reach_the_task():
+    site = building(_rng(7))
+    island = {"X-1", "X-2", "X-3"}
+
+    def travel_time(a, b):
+        if (a in island) != (b in island):
+            return math.inf
+        return 5.0 if a in island and a != b else site.travel_time(a, b) if a not in island else 0
+
+    task = one_to_one("T-0001", "X-1", "X-2")
+    near = RobotRoute("R-01", start=site.places[0], load=0, capacity=2, tasks=())
+    marooned = RobotRoute("R-02", start="X-3", load=0, capacity=2, tasks=())
+    got = allocate(task, [near, marooned], travel_time)
+    assert (got.robot, got.added_cost) == ("R-02", 10.0)
+    assert allocate(task, [near], travel_time) is None
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_it_plans_long_routes_by_heuristic_no_worse_than_cheapest_insertion(seed):
+    instance = generated(seed, robots=2, held=EXACT_TASK_LIMIT + 1, capacity=(6, 8))
+    for robot in instance.robots:
+        base = best_plan(robot, instance.travel_time)
+        plan = best_plan(robot, instance.travel_time, extra=instance.task)
+        inserted = cheapest_insertion(robot, base.stops, instance.task, instance.travel_time)
+        assert not plan.exact
+        assert_valid_route(robot, plan, instance.travel_time, instance.task)
+        assert plan.cost <= inserted.cost + SAME
+    got = allocate(instance.task, instance.robots, instance.travel_time)
+    assert not got.plan.exact
+    assert math.isfinite(got.added_cost)
+
+
+def test_it_generates_metric_travel_times():
+    site = building(_rng(8))
+    places = site.places[::7]
+    t = site.travel_time
+    for a in places:
+        assert t(a, a) == 0
+        for b in places:
+            assert t(a, b) == pytest.approx(t(b, a))
+            assert all(t(a, c) <= t(a, b) + t(b, c) + SAME for c in places)
+
+
+def test_it_generates_the_same_instance_from_the_same_seed():
+    assert generated(11, robots=3, held=2) == generated(11, robots=3, held=2)
+
+
+def test_it_imports_nothing_from_django():
+    code = "import sys, scheduling.allocator; sys.exit(any('django' in m for m in sys.modules))"
+    assert subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=False).returncode == 0
+
+
+def _rng(seed):
+    return random.Random(seed)
