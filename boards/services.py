@@ -36,6 +36,12 @@ class AppliedHeartbeat:
     acked: list[BoardMessage] = field(default_factory=list)
     events: list[RobotEvent] = field(default_factory=list)
     requests: list[RobotRequest] = field(default_factory=list)
+    # Request id -> its index in the heartbeat's `requests` list (first occurrence), so a
+    # receiver can name the field it refuses ("requests[2].to_floor").
+    request_index: dict[str, int] = field(default_factory=dict)
+    # Event id -> its index in the heartbeat's `events` list (first occurrence), likewise
+    # ("events[3].task").
+    event_index: dict[str, int] = field(default_factory=dict)
 
 
 @dataclass
@@ -72,6 +78,8 @@ def heartbeat_apply(*, robot_id: int, heartbeat: dict, now: datetime | None = No
         acked=acked,
         events=events,
         requests=requests,
+        request_index=_index_of_each_id(heartbeat["requests"]),
+        event_index=_index_of_each_id(heartbeat["events"]),
     )
     heartbeat_applied.send(sender=AppliedHeartbeat, applied=applied)
     return HeartbeatReply(
@@ -141,6 +149,13 @@ def _first_of_each_id(items: list[dict]) -> dict[str, dict]:
     for item in items:
         first.setdefault(item["id"], item)
     return first
+
+
+def _index_of_each_id(items: list[dict]) -> dict[str, int]:
+    index: dict[str, int] = {}
+    for position, item in enumerate(items):
+        index.setdefault(item["id"], position)
+    return index
 
 
 def board_pending(*, robot: Robot) -> list[BoardMessage]:

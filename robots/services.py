@@ -32,8 +32,17 @@ def robot_token_issue(*, robot: Robot) -> str:
 
 
 def robot_lock(robot_id: int) -> Robot:
-    """Lock the robot's row for the rest of the transaction: all its writes go through here."""
-    return Robot.objects.select_for_update().select_related("site").get(pk=robot_id)
+    """Lock the robot's row for the rest of the transaction: all its writes go through here.
+
+    Only the robot's row (`of`), not the joined site's: heartbeats of different robots must
+    not queue behind each other. And `no_key`: rows referring to the robot (a board message
+    posted for it by another robot's transaction) may still be inserted meanwhile.
+    """
+    return (
+        Robot.objects.select_for_update(of=("self",), no_key=True)
+        .select_related("site")
+        .get(pk=robot_id)
+    )
 
 
 def robot_heartbeat_record(

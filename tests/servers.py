@@ -1,4 +1,5 @@
-"""Real servers for tests: gunicorn, run the way the README runs it in production."""
+"""Real servers for tests: gunicorn and a Celery worker, run the way the README runs them in
+production, on the test database (and the test Redis database, from REDIS_URL)."""
 
 import os
 import socket
@@ -60,3 +61,98 @@ def gunicorn(*, workers: int = 2, env: dict | None = None):
     finally:
         process.terminate()
         process.wait(timeout=15)
+
+
+def server_env(env: dict | None = None) -> dict:
+    return {
+        **os.environ,
+        "DATABASE_URL": test_database_url(),
+        "DATABASE_CONN_MAX_AGE": "0",
+        **(env or {}),
+    }
+
+
+def poll(check, *, timeout: float = 30.0, interval: float = 0.05, what: str = "condition"):
+    """check()'s first truthy result, polling until `timeout` seconds have passed."""
+    deadline = time.monotonic() + timeout
+    while True:
+        result = check()
+        if result:
+            return result
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"{what} not reached within {timeout} s")
+        time.sleep(interval)
+
+
+class CeleryWorker:
+    """A `celery worker` process (solo pool) that consumes, and publishes to, one queue only,
+    so that test sessions running side by side (pytest -n) never take each other's messages."""
+
+    def __init__(self, app, queue: str, process: subprocess.Popen):
+        self.app, self.queue, self.process = app, queue, process
+        self.hostname = f"{queue}@{socket.gethostname()}"
+
+    def ping(self) -> bool:
+        if self.process.poll() is not None:
+            raise RuntimeError(f"celery worker exited with {self.process.returncode}")
+        return bool(self.app.control.ping(destination=[self.hostname], timeout=0.5))
+
+    def is_idle(self) -> bool:
+        """Nothing queued, nothing running, nothing reserved (a solo worker answers only when
+        it is not running a task)."""
+        with self.app.connection_for_read() as connection:
+            if connection.default_channel.client.llen(self.queue):
+                return False
+        inspect = self.app.control.inspect(destination=[self.hostname], timeout=0.5)
+        active, reserved = inspect.active() or {}, inspect.reserved() or {}
+        return active.get(self.hostname) == [] and reserved.get(self.hostname) == []
+
+    def wait_idle(self, timeout: float = 30.0) -> None:
+        poll(self.is_idle, timeout=timeout, interval=0.1, what="an idle celery worker")
+
+
+def celery_queue_delete(app, queue: str) -> None:
+    """Remove a test queue and the routing keys Redis keeps for it."""
+    with app.connection_for_write() as connection:
+        client = connection.default_channel.client
+        client.delete(queue, f"_kombu.binding.{queue}", f"_kombu.binding_permanent.{queue}")
+
+
+@contextmanager
+def celery_worker(*, queue: str, env: dict | None = None):
+    """Run a Celery worker of the project on `queue` until the block ends."""
+    from hospital_delivery.celery import app
+
+    command = [sys.executable, "-m", "tests.servers", "celery-worker", queue]
+    process = subprocess.Popen(command, cwd=REPO, env=server_env(env))
+    worker = CeleryWorker(app, queue, process)
+    try:
+        poll(worker.ping, timeout=60, interval=0.2, what="a celery worker answering pings")
+        yield worker
+    finally:
+        process.terminate()
+        try:
+            process.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait(timeout=5)
+        celery_queue_delete(app, queue)
+
+
+def _celery_worker_main(queue: str) -> None:
+    """The worker process: `celery --app hospital_delivery worker`, except that the messages
+    its tasks send (on_commit allocations) go to its own queue rather than the default."""
+    from hospital_delivery.celery import app
+
+    app.conf.task_default_queue = queue
+    app.worker_main(
+        [
+            *("worker", "--pool", "solo", "--queues", queue, "--hostname", f"{queue}@%h"),
+            *("--without-mingle", "--without-gossip", "--loglevel", "WARNING"),
+        ]
+    )
+
+
+if __name__ == "__main__":
+    if sys.argv[1:2] == ["celery-worker"]:
+        _celery_worker_main(sys.argv[2])

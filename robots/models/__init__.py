@@ -1,5 +1,6 @@
 from robots.models.alerts import Alert, AlertKind
 from robots.models.fleet import PresenceChange, Robot, RobotBoot
+from robots.models.leases import Lease
 from robots.models.sites import Edge, Floor, Resource, ResourceWaypoint, Site, Waypoint
 
 __all__ = [
@@ -7,6 +8,7 @@ __all__ = [
     "AlertKind",
     "Edge",
     "Floor",
+    "Lease",
     "PresenceChange",
     "Resource",
     "ResourceWaypoint",

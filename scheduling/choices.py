@@ -1,0 +1,53 @@
+from django.db import models
+
+
+class TaskStatus(models.TextChoices):
+    """Where a delivery task is in its lifecycle (see scheduling/services/__init__.py)."""
+
+    SCHEDULED = "scheduled", "Scheduled"
+    DUE = "due", "Due, waiting for a robot"
+    ASSIGNED = "assigned", "Assigned (plan posted)"
+    ACKNOWLEDGED = "acknowledged", "Acknowledged by the robot"
+    PICKED_UP = "picked_up", "Picked up"
+    DELIVERED = "delivered", "Delivered"
+    COMPLETED = "completed", "Completed"
+    CANCELLED = "cancelled", "Cancelled"
+    FAILED = "failed", "Failed"
+
+
+# Held by a robot: the task has a robot and (until delivered) stops on its route.
+HELD_STATUSES = [
+    TaskStatus.ASSIGNED,
+    TaskStatus.ACKNOWLEDGED,
+    TaskStatus.PICKED_UP,
+    TaskStatus.DELIVERED,
+]
+# On a robot's route: stops left to visit.
+ROUTE_STATUSES = [TaskStatus.ASSIGNED, TaskStatus.ACKNOWLEDGED, TaskStatus.PICKED_UP]
+WAITING_STATUSES = [TaskStatus.SCHEDULED, TaskStatus.DUE]
+# The lifecycle is over: robot events about the task are only recorded in its history.
+FINISHED_STATUSES = [TaskStatus.COMPLETED, TaskStatus.CANCELLED, TaskStatus.FAILED]
+
+
+class Priority(models.TextChoices):
+    NORMAL = "normal", "Normal"
+    URGENT = "urgent", "Urgent"
+
+
+class StopAction(models.TextChoices):
+    PICKUP = "pickup", "Pick-up"
+    DROPOFF = "dropoff", "Drop-off"
+
+
+class Cause(models.TextChoices):
+    """Why a task changed (TaskTransition.cause)."""
+
+    REQUEST = "request", "Requested"
+    SCHEDULE = "schedule", "Periodic request"
+    SWEEP = "sweep", "Requested time reached"
+    ALLOCATION = "allocation", "Allocated"
+    ROBOT_ACK = "robot_ack", "Robot acknowledged its plan"
+    ROBOT_EVENT = "robot_event", "Robot event"
+    ACK_TIMEOUT = "ack_timeout", "Not acknowledged in time"
+    PRESENCE = "presence", "Robot went offline"
+    USER = "user", "User"

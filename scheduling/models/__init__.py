@@ -1,0 +1,14 @@
+from scheduling.models.plans import AllocationLock, RobotPlan
+from scheduling.models.recurring import RecurringRequest
+from scheduling.models.tasks import Task, TaskStop, TaskTransition, task_code, task_pk
+
+__all__ = [
+    "AllocationLock",
+    "RecurringRequest",
+    "RobotPlan",
+    "Task",
+    "TaskStop",
+    "TaskTransition",
+    "task_code",
+    "task_pk",
+]

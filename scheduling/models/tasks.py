@@ -1,0 +1,188 @@
+"""Delivery tasks, their stops and their history."""
+
+from django.conf import settings
+from django.db import models
+from django.db.models import Q
+from django.utils import timezone
+
+from scheduling.choices import Cause, Priority, StopAction, TaskStatus
+
+CODE_PREFIX = "T-"
+
+
+def task_code(pk: int) -> str:
+    """T-0042: a task's public code, derived from its primary key."""
+    return f"{CODE_PREFIX}{pk:04d}"
+
+
+def task_pk(code: str) -> int | None:
+    """The primary key of a task code, or None if `code` is not one (T-42 is not T-0042)."""
+    digits = code.removeprefix(CODE_PREFIX)
+    if not digits.isdigit() or task_code(int(digits)) != code:
+        return None
+    return int(digits)
+
+
+class TaskQuerySet(models.QuerySet):
+    def with_code(self, code: str):
+        pk = task_pk(code)
+        return self.none() if pk is None else self.filter(pk=pk)
+
+    def with_codes(self, codes):
+        return self.filter(pk__in=[pk for pk in map(task_pk, codes) if pk is not None])
+
+
+class Task(models.Model):
+    """One delivery: items picked up at one or more stations and dropped off at others."""
+
+    site = models.ForeignKey("robots.Site", on_delete=models.PROTECT, related_name="tasks")
+    requester = models.ForeignKey(
+        settings.AUTH_USER_MODEL, null=True, blank=True, on_delete=models.SET_NULL
+    )
+    sender = models.CharField(max_length=200)
+    receiver = models.CharField(max_length=200)
+    contents = models.CharField(max_length=200)
+    priority = models.CharField(max_length=8, choices=Priority, default=Priority.NORMAL)
+    requested_time = models.DateTimeField(help_text="when a robot should come for it")
+    status = models.CharField(max_length=16, choices=TaskStatus, default=TaskStatus.SCHEDULED)
+    robot = models.ForeignKey(
+        "robots.Robot", null=True, blank=True, on_delete=models.SET_NULL, related_name="tasks"
+    )
+    timed_out_robot = models.ForeignKey(
+        "robots.Robot",
+        null=True,
+        blank=True,
+        on_delete=models.SET_NULL,
+        related_name="+",
+        help_text="the last robot that did not acknowledge it in time; others go first",
+    )
+    recurring = models.ForeignKey(
+        "scheduling.RecurringRequest",
+        null=True,
+        blank=True,
+        on_delete=models.SET_NULL,
+        related_name="instances",
+    )
+    scheduled_for = models.DateTimeField(
+        null=True, blank=True, help_text="the occurrence of its periodic request"
+    )
+    return_trip = models.BooleanField(
+        default=False, help_text="cancelled after pick-up: going back to its pick-up point"
+    )
+    waiting_reason = models.CharField(
+        max_length=200, blank=True, help_text="why no robot took it yet"
+    )
+    created_at = models.DateTimeField(default=timezone.now)
+    assigned_at = models.DateTimeField(null=True, blank=True)
+    ack_due_at = models.DateTimeField(null=True, blank=True)
+    acknowledged_at = models.DateTimeField(null=True, blank=True)
+    picked_up_at = models.DateTimeField(null=True, blank=True)
+    delivered_at = models.DateTimeField(null=True, blank=True)
+    completed_at = models.DateTimeField(null=True, blank=True)
+    cancelled_at = models.DateTimeField(null=True, blank=True)
+    failed_at = models.DateTimeField(null=True, blank=True)
+    eta = models.DateTimeField(null=True, blank=True, help_text="estimated last drop-off")
+
+    objects = TaskQuerySet.as_manager()
+
+    class Meta:
+        ordering = ["-id"]
+        constraints = [
+            models.UniqueConstraint(
+                fields=["recurring", "scheduled_for"],
+                condition=Q(recurring__isnull=False),
+                name="task_one_per_occurrence",
+            ),
+        ]
+        indexes = [
+            models.Index(fields=["status", "requested_time"], name="task_status_time"),
+            models.Index(
+                fields=["ack_due_at"],
+                condition=Q(status=TaskStatus.ASSIGNED),
+                name="task_ack_due",
+            ),
+            models.Index(fields=["robot", "status"], name="task_robot_status"),
+        ]
+
+    def __str__(self):
+        return self.code
+
+    @property
+    def code(self) -> str:
+        return task_code(self.pk)
+
+    def wire(self) -> dict:
+        """What a robot's plan says about the task (protocol v1, plan `tasks`)."""
+        return {
+            "contents": self.contents,
+            "sender": self.sender,
+            "receiver": self.receiver,
+            "priority": self.priority,
+        }
+
+
+class TaskStopQuerySet(models.QuerySet):
+    def remaining(self):
+        return self.filter(done_at__isnull=True, skipped_at__isnull=True)
+
+
+class TaskStop(models.Model):
+    """A pick-up or drop-off; `index` is the protocol's `stop`. Drop-offs follow all pick-ups."""
+
+    task = models.ForeignKey(Task, on_delete=models.CASCADE, related_name="stops")
+    index = models.PositiveSmallIntegerField()
+    action = models.CharField(max_length=8, choices=StopAction)
+    waypoint = models.ForeignKey("robots.Waypoint", on_delete=models.PROTECT, related_name="+")
+    load_change = models.SmallIntegerField(help_text="items on board after minus before")
+    done_at = models.DateTimeField(null=True, blank=True)
+    done_by = models.ForeignKey(
+        "boards.RobotEvent", null=True, blank=True, on_delete=models.SET_NULL, related_name="+"
+    )
+    skipped_at = models.DateTimeField(
+        null=True, blank=True, help_text="dropped from the task (a return trip replaced it)"
+    )
+
+    objects = TaskStopQuerySet.as_manager()
+
+    class Meta:
+        ordering = ["task", "index"]
+        constraints = [
+            models.UniqueConstraint(fields=["task", "index"], name="task_stop_index_unique"),
+        ]
+
+    def __str__(self):
+        return f"{task_code(self.task_id)} stop {self.index} {self.action}"
+
+    @property
+    def is_remaining(self) -> bool:
+        return self.done_at is None and self.skipped_at is None
+
+
+class TaskTransition(models.Model):
+    """One entry of a task's history: a status change, or an event that changed none."""
+
+    task = models.ForeignKey(Task, on_delete=models.CASCADE, related_name="history")
+    at = models.DateTimeField()
+    old = models.CharField(max_length=16, choices=TaskStatus, blank=True)
+    new = models.CharField(max_length=16, choices=TaskStatus)
+    cause = models.CharField(max_length=16, choices=Cause)
+    robot = models.ForeignKey(
+        "robots.Robot", null=True, blank=True, on_delete=models.SET_NULL, related_name="+"
+    )
+    event = models.ForeignKey(
+        "boards.RobotEvent", null=True, blank=True, on_delete=models.SET_NULL, related_name="+"
+    )
+    user = models.ForeignKey(
+        settings.AUTH_USER_MODEL,
+        null=True,
+        blank=True,
+        on_delete=models.SET_NULL,
+        related_name="+",
+    )
+    note = models.CharField(max_length=300, blank=True)
+
+    class Meta:
+        ordering = ["id"]
+
+    def __str__(self):
+        return f"{task_code(self.task_id)}: {self.old or '-'} -> {self.new} ({self.cause})"

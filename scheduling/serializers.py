@@ -1,0 +1,220 @@
+"""Delivery tasks on the API: request validation and what is shown."""
+
+from datetime import timedelta
+
+from django.utils import timezone
+from rest_framework import serializers
+
+from hospital_delivery.fields import StrictCharField, StrictDateTimeField, StrictIntegerField
+from robots.models import Site
+from scheduling.choices import Priority, TaskStatus
+from scheduling.models import RecurringRequest, Task, TaskStop, TaskTransition
+from scheduling.recurrence import MINUTES_PER_DAY, parse_clock
+from scheduling.selectors import stations_by_code
+
+# A requested time this far in the past is taken as "now" (clocks of hospital systems differ).
+PAST_TOLERANCE = timedelta(minutes=1)
+MAX_STOPS = 10
+
+
+class RepeatSerializer(serializers.Serializer):
+    """{"times": ["08:00", "14:00"]} or {"every_minutes": 120, "from": "08:00", "until": "20:00"}"""
+
+    def get_fields(self):
+        clock = {"required": False, "help_text": "HH:MM, site local time"}
+        return {
+            "times": serializers.ListField(
+                child=StrictCharField(),
+                required=False,
+                min_length=1,
+                max_length=48,
+                help_text="every day at these local times (HH:MM)",
+            ),
+            "every_minutes": StrictIntegerField(
+                required=False, min_value=1, max_value=MINUTES_PER_DAY
+            ),
+            "from": StrictCharField(**clock),
+            "until": StrictCharField(**clock),
+        }
+
+    def validate_times(self, times):
+        errors = {n: [f"{text!r} is not HH:MM"] for n, text in enumerate(times) if not _clock(text)}
+        if errors:
+            raise serializers.ValidationError(errors)
+        if len(set(times)) != len(times):
+            raise serializers.ValidationError("a time is repeated")
+        return times
+
+    def validate(self, attrs):
+        if ("times" in attrs) == ("every_minutes" in attrs):
+            raise serializers.ValidationError("give either times or every_minutes")
+        if "times" in attrs:
+            return {"times": attrs["times"]}
+        return {"every_minutes": attrs["every_minutes"], **_window(attrs)}
+
+
+def _clock(text: str):
+    try:
+        return parse_clock(text)
+    except ValueError:
+        return None
+
+
+def _window(attrs: dict) -> dict:
+    errors = {}
+    for name in ("from", "until"):
+        if name not in attrs:
+            errors[name] = ["required with every_minutes"]
+        elif _clock(attrs[name]) is None:
+            errors[name] = [f"{attrs[name]!r} is not HH:MM"]
+    if not errors and _clock(attrs["from"]) >= _clock(attrs["until"]):
+        errors["until"] = ["must be after from"]
+    if errors:
+        raise serializers.ValidationError(errors)
+    return {"from": attrs["from"], "until": attrs["until"]}
+
+
+class TaskRequestSerializer(serializers.Serializer):
+    site = StrictCharField(required=False, help_text="site code; needed only with several sites")
+    sender = StrictCharField(max_length=200)
+    receiver = StrictCharField(max_length=200)
+    contents = StrictCharField(max_length=200)
+    priority = serializers.ChoiceField(choices=Priority.values, default=Priority.NORMAL)
+    requested_time = StrictDateTimeField(
+        required=False, help_text="when a robot should come; default now"
+    )
+    pickups = serializers.ListField(
+        child=StrictCharField(), min_length=1, max_length=MAX_STOPS, help_text="station codes"
+    )
+    dropoffs = serializers.ListField(
+        child=StrictCharField(), min_length=1, max_length=MAX_STOPS, help_text="station codes"
+    )
+    repeat = RepeatSerializer(required=False, help_text="makes it a periodic request")
+
+    def validate_site(self, code):
+        site = Site.objects.filter(code=code).first()
+        if site is None:
+            raise serializers.ValidationError(f"unknown site {code!r}")
+        return site
+
+    def validate_requested_time(self, moment):
+        if moment < timezone.now() - PAST_TOLERANCE:
+            raise serializers.ValidationError("is in the past")
+        return moment
+
+    def validate(self, attrs):
+        attrs["site"] = attrs.get("site") or _only_site()
+        stations = stations_by_code(site=attrs["site"], codes=attrs["pickups"] + attrs["dropoffs"])
+        errors = {
+            **_station_errors("pickups", attrs["pickups"], stations, ()),
+            **_station_errors("dropoffs", attrs["dropoffs"], stations, attrs["pickups"]),
+        }
+        if not errors and len(attrs["pickups"]) > 1 and len(attrs["dropoffs"]) > 1:
+            errors["dropoffs"] = ["several pick-ups need exactly one drop-off (no many-to-many)"]
+        if errors:
+            raise serializers.ValidationError(errors)
+        attrs["pickups"] = [stations[code] for code in attrs["pickups"]]
+        attrs["dropoffs"] = [stations[code] for code in attrs["dropoffs"]]
+        return attrs
+
+
+def _only_site() -> Site:
+    sites = list(Site.objects.all()[:2])
+    if len(sites) != 1:
+        raise serializers.ValidationError({"site": ["required: name the site"]})
+    return sites[0]
+
+
+def _station_errors(name: str, codes: list[str], stations: dict, pickups) -> dict:
+    errors = {}
+    for n, code in enumerate(codes):
+        if code not in stations:
+            errors[n] = [f"unknown station {code!r}"]
+        elif code in codes[:n]:
+            errors[n] = [f"station {code!r} is given twice"]
+        elif code in pickups:
+            errors[n] = [f"station {code!r} is also a pick-up"]
+    return {name: errors} if errors else {}
+
+
+class TaskStopSerializer(serializers.ModelSerializer):
+    stop = serializers.IntegerField(source="index")
+    waypoint = serializers.CharField(source="waypoint.code")
+    station = serializers.CharField(source="waypoint.label")
+
+    class Meta:
+        model = TaskStop
+        fields = ["stop", "action", "waypoint", "station", "done_at", "skipped_at"]
+
+
+class RecurringSerializer(serializers.ModelSerializer):
+    class Meta:
+        model = RecurringRequest
+        fields = ["id", "repeat", "active"]
+
+
+STATUS_HELP = f"one of: {', '.join(TaskStatus.values)}"
+
+
+class TaskSerializer(serializers.ModelSerializer):
+    code = serializers.CharField(read_only=True)
+    # Plain strings in the schema: enums named "status"/"priority" exist in the robot protocol.
+    status = serializers.CharField(help_text=STATUS_HELP)
+    priority = serializers.CharField(help_text=f"one of: {', '.join(Priority.values)}")
+    site = serializers.CharField(source="site.code")
+    requester = serializers.CharField(source="requester.username", allow_null=True)
+    robot = serializers.CharField(source="robot.code", allow_null=True)
+    stops = TaskStopSerializer(many=True)
+    recurring = RecurringSerializer(allow_null=True)
+
+    class Meta:
+        model = Task
+        fields = [
+            "code",
+            "status",
+            "site",
+            "priority",
+            "sender",
+            "receiver",
+            "contents",
+            "requested_time",
+            "requester",
+            "robot",
+            "return_trip",
+            "eta",
+            "waiting_reason",
+            "stops",
+            "recurring",
+            "scheduled_for",
+            "created_at",
+            "assigned_at",
+            "acknowledged_at",
+            "picked_up_at",
+            "delivered_at",
+            "completed_at",
+            "cancelled_at",
+            "failed_at",
+        ]
+        read_only_fields = fields
+
+
+class TaskTransitionSerializer(serializers.ModelSerializer):
+    old = serializers.CharField(help_text="status before; empty when the task was created")
+    new = serializers.CharField(help_text=STATUS_HELP)
+    robot = serializers.CharField(source="robot.code", allow_null=True)
+    event = serializers.CharField(source="event.event_id", allow_null=True)
+    event_type = serializers.CharField(source="event.type", allow_null=True)
+    user = serializers.CharField(source="user.username", allow_null=True)
+
+    class Meta:
+        model = TaskTransition
+        fields = ["at", "old", "new", "cause", "robot", "event", "event_type", "user", "note"]
+        read_only_fields = fields
+
+
+class TaskDetailSerializer(TaskSerializer):
+    history = TaskTransitionSerializer(many=True)
+
+    class Meta(TaskSerializer.Meta):
+        fields = [*TaskSerializer.Meta.fields, "history"]
+        read_only_fields = fields

@@ -1,0 +1,38 @@
+"""Writes of the scheduler.
+
+Lifecycle of a task (every change recorded as a TaskTransition with its cause):
+
+    scheduled --time came--> due --allocation--> assigned (plan posted)
+    assigned --plan acked / task_received / any event of its robot--> acknowledged
+    acknowledged --all pick-ups loaded--> picked_up --all drop-offs unloaded--> delivered
+    delivered --task_completed--> completed          (any held state --task_failed--> failed)
+    assigned --ack timeout--> due                    (assigned, acknowledged --offline--> due)
+    scheduled, due, assigned, acknowledged --cancel--> cancelled
+    picked_up (or partly loaded) --cancel--> picked_up with a return trip --unloaded--> cancelled
+
+Lock order (no deadlocks): the site's AllocationLock row, taken only by allocation and first;
+then at most one robot row (robots.services.robot_lock) per transaction. Everything but
+allocation takes only the robot's lock (heartbeats and presence changes already hold it);
+when such code needs a task allocated again, it makes the task due and enqueues allocation on
+commit, and the due sweep finds it anyway if that message is lost. Tasks with a robot are
+changed only under that robot's lock; tasks without one only by conditional updates.
+"""
+
+from scheduling.services.allocation import due_sweep, task_allocate
+from scheduling.services.cancellation import TaskNotCancellable, task_cancel
+from scheduling.services.events import heartbeat_tasks_apply
+from scheduling.services.presence import robot_offline
+from scheduling.services.requests import recurring_sweep, task_request
+from scheduling.services.timeouts import ack_timeout_sweep
+
+__all__ = [
+    "TaskNotCancellable",
+    "ack_timeout_sweep",
+    "due_sweep",
+    "heartbeat_tasks_apply",
+    "recurring_sweep",
+    "robot_offline",
+    "task_allocate",
+    "task_cancel",
+    "task_request",
+]

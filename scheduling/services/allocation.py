@@ -1,0 +1,166 @@
+"""Allocation: a due task goes to the robot whose remaining route it lengthens least.
+
+Runs under the site's allocation lock (AllocationLock row), taken first and only here, so two
+workers never allocate on one site at once. Then it locks the one chosen robot. Everything
+else that changes a robot's route holds that robot's lock, so the chosen robot's route is
+read again under its lock, and the plan is built on that.
+"""
+
+import logging
+from dataclasses import dataclass
+from datetime import datetime, timedelta
+
+from django.db import transaction
+from django.db.models import Case, IntegerField, Value, When
+from django.utils import timezone
+
+from robots.models import Robot, Site
+from robots.selectors import robots_for_allocation
+from robots.services import robot_lock
+from robots.sitemap import router_for
+from scheduling.allocator import Stop, TaskStops, allocate, best_plan
+from scheduling.choices import Cause, Priority, TaskStatus
+from scheduling.models import AllocationLock, Task
+from scheduling.selectors import HeldRoute, robot_route, robot_routes, task_stops
+from scheduling.services.history import task_record
+from scheduling.services.plans import plan_post
+
+logger = logging.getLogger(__name__)
+
+DUE_BATCH = 200  # tasks one due sweep allocates at most; the next sweep takes the rest
+NO_ROBOT = "no robot available (online, not paused or in error, battery above the threshold)"
+NO_ROUTE = "no available robot can fit it in its route (capacity or unreachable stops)"
+
+
+def task_allocate(*, task_id: int, now: datetime | None = None) -> bool:
+    """Allocate a task if it is still due and unassigned; False if it stays due.
+
+    Idempotent: a task that is no longer due is left alone.
+    """
+    now = now or timezone.now()
+    site_id = Task.objects.filter(pk=task_id).values_list("site_id", flat=True).first()
+    if site_id is None:
+        return False
+    with transaction.atomic():
+        site = _allocation_lock(site_id)
+        task = Task.objects.filter(pk=task_id, status=TaskStatus.DUE, robot__isnull=True).first()
+        if task is None:
+            return False
+        return _allocate(task, site, now)
+
+
+def due_sweep(*, now: datetime | None = None) -> int:
+    """Tasks whose time came become due; every due task is offered to the robots, urgent
+    ones first. Finds what a lost Celery message left behind. Returns how many were assigned."""
+    now = now or timezone.now()
+    for task_id in Task.objects.filter(
+        status=TaskStatus.SCHEDULED, requested_time__lte=now
+    ).values_list("pk", flat=True):
+        task_make_due(task_id=task_id, now=now)
+    due = (
+        Task.objects.filter(status=TaskStatus.DUE, robot__isnull=True)
+        .annotate(rank=_URGENT_FIRST)
+        .order_by("rank", "requested_time", "pk")
+        .values_list("pk", flat=True)[:DUE_BATCH]
+    )
+    return sum(_allocate_logging_errors(task_id, now) for task_id in list(due))
+
+
+def _allocate_logging_errors(task_id: int, now: datetime) -> bool:
+    """One task's failure (a deadlock victim, say) must not stop the sweep for the others."""
+    try:
+        return task_allocate(task_id=task_id, now=now)
+    except Exception:
+        logger.exception("allocating task %s failed; the next sweep tries again", task_id)
+        return False
+
+
+_URGENT_FIRST = Case(
+    When(priority=Priority.URGENT, then=Value(0)), default=Value(1), output_field=IntegerField()
+)
+
+
+@transaction.atomic
+def task_make_due(*, task_id: int, now: datetime) -> bool:
+    """A scheduled task whose requested time came becomes due (claimed by conditional update)."""
+    claimed = Task.objects.filter(pk=task_id, status=TaskStatus.SCHEDULED).update(
+        status=TaskStatus.DUE
+    )
+    if claimed:
+        task = Task.objects.get(pk=task_id)
+        task_record(task, old=TaskStatus.SCHEDULED, at=now, cause=Cause.SWEEP)
+    return bool(claimed)
+
+
+def _allocation_lock(site_id: int) -> Site:
+    """Lock the site's allocation lock row for the rest of the transaction; return the site."""
+    locked = AllocationLock.objects.select_for_update(of=("self",)).select_related("site")
+    lock = locked.filter(site_id=site_id).first()
+    if lock is None:
+        AllocationLock.objects.get_or_create(site_id=site_id)
+        lock = locked.get(site_id=site_id)
+    return lock.site
+
+
+def _allocate(task: Task, site: Site, now: datetime) -> bool:
+    new = task_stops(task, task.stops.all(), site=site)
+    routes = robot_routes(robots=robots_for_allocation(site=site))
+    choice = _choose(new, task, routes, router_for(site).travel_time)
+    if choice is None:
+        _wait(task, NO_ROUTE if routes else NO_ROBOT)
+        return False
+    read = routes[choice.robot_id]
+    robot = robot_lock(choice.robot_id)
+    held = robot_route(robot=robot)
+    stops = choice.stops
+    if held.signature != read.signature:  # its route changed since it was read: plan on the new
+        plan = best_plan(held.route, router_for(site).travel_time, extra=new)
+        if plan is None:
+            _wait(task, NO_ROUTE)
+            return False
+        stops = plan.stops
+    return _assign(task, robot, held, stops, now)
+
+
+@dataclass(frozen=True)
+class _Choice:
+    robot_id: int
+    stops: tuple[Stop, ...]
+
+
+def _choose(
+    new: TaskStops, task: Task, routes: dict[int, HeldRoute], travel_time
+) -> _Choice | None:
+    """The best robot for the task; the robot that let it time out last only if no other can."""
+    by_code = {held.route.robot: pk for pk, held in routes.items()}
+    others = [h.route for pk, h in routes.items() if pk != task.timed_out_robot_id]
+    allocation = allocate(new, others, travel_time) if others else None
+    if allocation is None and task.timed_out_robot_id in routes:
+        allocation = allocate(new, [routes[task.timed_out_robot_id].route], travel_time)
+    if allocation is None:
+        return None
+    return _Choice(by_code[allocation.robot], allocation.plan.stops)
+
+
+def _assign(task: Task, robot: Robot, held: HeldRoute, stops, now: datetime) -> bool:
+    ack_due_at = now + timedelta(seconds=robot.site.ack_timeout)
+    fields = {"robot": robot, "assigned_at": now, "ack_due_at": ack_due_at, "waiting_reason": ""}
+    claimed = Task.objects.filter(pk=task.pk, status=TaskStatus.DUE, robot__isnull=True).update(
+        status=TaskStatus.ASSIGNED, **fields
+    )
+    if not claimed:  # cancelled meanwhile
+        return False
+    for name, value in fields.items():
+        setattr(task, name, value)
+    task.status = TaskStatus.ASSIGNED
+    task_record(task, old=TaskStatus.DUE, at=now, cause=Cause.ALLOCATION, robot=robot)
+    tasks = {**held.tasks, task.code: task}
+    plan_post(robot=robot, start=held.route.start, stops=stops, tasks=tasks, now=now)
+    return True
+
+
+def _wait(task: Task, reason: str) -> None:
+    """Record why the task stays due (logged once per change of reason)."""
+    if task.waiting_reason != reason:
+        logger.info("%s stays due: %s", task.code, reason)
+        Task.objects.filter(pk=task.pk).update(waiting_reason=reason)

@@ -1,0 +1,114 @@
+"""Cancellation by a user, in the three cases of protocol v1 ("Cancellation")."""
+
+from datetime import datetime
+
+from django.db import transaction
+from django.utils import timezone
+
+from robots.services import robot_lock
+from scheduling.choices import FINISHED_STATUSES, WAITING_STATUSES, Cause, StopAction, TaskStatus
+from scheduling.models import Task, TaskStop
+from scheduling.services.history import task_move, task_record
+from scheduling.services.plans import plan_withdraw_pending, robot_replan
+
+ATTEMPTS = 5  # a waiting task may be assigned while being cancelled; then try again
+
+
+class TaskNotCancellable(Exception):
+    """The task is delivered, finished, or already on its way back."""
+
+
+class _Moved(Exception):
+    """The task changed hands while we were locking; start again."""
+
+
+def task_cancel(*, task: Task, by, now: datetime | None = None) -> Task:
+    """Cancel a task for user `by`.
+
+    Not yet with a robot: cancelled. Assigned, not acknowledged: its plan is withdrawn and a
+    corrected plan posted. Acknowledged, nothing on board: a new plan without it. Items on
+    board: a return trip to its (first) pick-up point. Raises TaskNotCancellable otherwise.
+    """
+    now = now or timezone.now()
+    for _ in range(ATTEMPTS):
+        try:
+            with transaction.atomic():
+                return _cancel(task.pk, by, now)
+        except _Moved:
+            continue
+    raise TaskNotCancellable(f"{task.code} keeps changing hands; try again")
+
+
+def _cancel(task_id: int, by, now: datetime) -> Task:
+    task = _with_robot_locked(task_id)
+    if task.status in FINISHED_STATUSES or task.status == TaskStatus.DELIVERED:
+        raise TaskNotCancellable(f"{task.code} is {task.get_status_display().lower()}")
+    if task.return_trip:
+        raise TaskNotCancellable(f"{task.code} is already returning to its pick-up point")
+    if task.robot is None:
+        return _cancel_waiting(task, by, now)
+    stops = list(task.stops.select_related("waypoint"))
+    if any(stop.done_at for stop in stops):
+        return _return_trip(task, stops, by, now)
+    return _cancel_held(task, by, now)
+
+
+def _with_robot_locked(task_id: int) -> Task:
+    """The task, with its robot's row locked if it has one."""
+    task = Task.objects.get(pk=task_id)
+    if task.robot_id is None:
+        return task
+    robot = robot_lock(task.robot_id)
+    task = Task.objects.get(pk=task_id)
+    if task.robot_id != robot.pk:
+        raise _Moved
+    task.robot = robot
+    return task
+
+
+def _cancel_waiting(task: Task, by, now: datetime) -> Task:
+    claimed = Task.objects.filter(
+        pk=task.pk, status__in=WAITING_STATUSES, robot__isnull=True
+    ).update(status=TaskStatus.CANCELLED, cancelled_at=now)
+    if not claimed:
+        raise _Moved  # allocated meanwhile
+    old, task.status, task.cancelled_at = task.status, TaskStatus.CANCELLED, now
+    task_record(task, old=old, at=now, cause=Cause.USER, user=by, note="cancelled")
+    return task
+
+
+def _cancel_held(task: Task, by, now: datetime) -> Task:
+    robot = task.robot
+    if task.status == TaskStatus.ASSIGNED:
+        plan_withdraw_pending(robot=robot, reason=f"{task.code} cancelled", now=now)
+    task.cancelled_at, task.eta = now, None
+    note = f"cancelled; {robot.code} gets a plan without it"
+    why = {"cause": Cause.USER, "user": by, "robot": robot, "note": note}
+    task_move(task, TaskStatus.CANCELLED, at=now, fields=["cancelled_at", "eta"], **why)
+    robot_replan(robot=robot, now=now)
+    return task
+
+
+def _return_trip(task: Task, stops: list[TaskStop], by, now: datetime) -> Task:
+    """Drop what is left of the task; add a drop-off of what is on board where it came from."""
+    remaining = [stop for stop in stops if stop.is_remaining]
+    for stop in remaining:
+        stop.skipped_at = now
+    TaskStop.objects.bulk_update(remaining, ["skipped_at"])
+    origin = min((s for s in stops if s.action == StopAction.PICKUP), key=lambda s: s.index)
+    on_board = sum(stop.load_change for stop in stops if stop.done_at)
+    TaskStop.objects.create(
+        task=task,
+        index=max(stop.index for stop in stops) + 1,
+        action=StopAction.DROPOFF,
+        waypoint=origin.waypoint,
+        load_change=-on_board,
+    )
+    task.return_trip = True
+    task.picked_up_at = task.picked_up_at or now
+    note = f"cancelled after pick-up: returning {on_board} item(s) to {origin.waypoint.code}"
+    why = {"cause": Cause.USER, "user": by, "robot": task.robot, "note": note}
+    fields = ["return_trip", "picked_up_at"]
+    task_move(task, TaskStatus.PICKED_UP, at=now, fields=fields, **why)
+    robot_replan(robot=task.robot, now=now)
+    return task

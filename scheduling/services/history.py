@@ -1,0 +1,73 @@
+"""Every change of a task goes through here: its status, its history entry, the live push."""
+
+import logging
+from datetime import datetime
+
+from django.db import transaction
+
+from boards.events import publish_on_commit
+from scheduling.models import Task, TaskTransition
+
+logger = logging.getLogger(__name__)
+
+
+def task_move(task: Task, new: str, *, at: datetime, fields=(), **why) -> None:
+    """Set the task's status (and `fields` already set on it), save, record why.
+
+    Call with the task's robot locked, or after claiming the row by a conditional update.
+    """
+    old, task.status = task.status, new
+    task.save(update_fields=["status", *fields])
+    task_record(task, old=old, at=at, **why)
+
+
+def task_record(
+    task: Task,
+    *,
+    old: str,
+    at: datetime,
+    cause: str,
+    robot=None,
+    event=None,
+    user=None,
+    note: str = "",
+) -> TaskTransition:
+    """Add an entry to the task's history (old == new for events that changed no status)."""
+    entry = TaskTransition.objects.create(
+        task=task,
+        at=at,
+        old=old,
+        new=task.status,
+        cause=cause,
+        robot=robot,
+        event=event,
+        user=user,
+        note=note[:300],
+    )
+    publish_on_commit(site_id=task.site_id, kind="task", data=task_event_wire(task, entry))
+    return entry
+
+
+def task_event_wire(task: Task, entry: TaskTransition) -> dict:
+    return {
+        "code": task.code,
+        "status": task.status,
+        "old": entry.old,
+        "cause": entry.cause,
+        "robot": entry.robot.code if entry.robot else None,
+        "at": entry.at.isoformat(),
+    }
+
+
+def allocation_enqueue(task_id: int) -> None:
+    """Ask a Celery worker to allocate the task once this transaction commits.
+
+    Best effort: if the message is lost (or Redis is down) the due sweep allocates it.
+    """
+    transaction.on_commit(lambda: _send_allocation(task_id), robust=True)
+
+
+def _send_allocation(task_id: int) -> None:
+    from scheduling.tasks import allocate_task  # the tasks module imports the services
+
+    allocate_task.delay(task_id)

@@ -1,0 +1,125 @@
+"""Plans on a robot's message board (protocol v1 `plan`): the whole remaining route.
+
+Every function here is called with the robot's row locked (robots.services.robot_lock, or a
+heartbeat or presence transaction), so plan versions and RobotPlan rows never race.
+"""
+
+import logging
+import math
+from collections.abc import Sequence
+from datetime import datetime, timedelta
+
+from boards.choices import MessageType
+from boards.models import BoardMessage
+from boards.services import board_post, board_withdraw
+from robots.graph import Router
+from robots.models import Robot
+from robots.selectors import robot_dock, robot_position
+from robots.sitemap import router_for
+from scheduling.allocator import Stop, best_plan
+from scheduling.models import RobotPlan, Task
+from scheduling.selectors import HeldRoute, robot_route
+
+logger = logging.getLogger(__name__)
+
+PLAN_KEY = "plan"
+DOCK = "dock"
+
+
+def plan_post(
+    *, robot: Robot, start: str, stops: Sequence[Stop], tasks: dict[str, Task], now: datetime
+) -> RobotPlan:
+    """Post `stops` as the robot's plan, superseding any unacked plan; store the tasks' ETAs."""
+    router = router_for(robot.site)
+    wire, arrivals = _wire_stops(router, start, stops)
+    codes = dict.fromkeys(stop.task for stop in stops)
+    body = {"stops": wire, "tasks": {code: tasks[code].wire() for code in codes}}
+    _etas_store(tasks, arrivals, now)
+    return _post(robot, body, now)
+
+
+def plan_dock_post(*, robot: Robot, now: datetime) -> RobotPlan:
+    """The plan of a robot with nothing left to do: back to its dock."""
+    dock = robot_dock(robot)
+    stop = {"action": DOCK, "waypoint": dock}
+    via = router_for(robot.site).leg(robot_position(robot), dock).via
+    if via:
+        stop["via"] = via
+    return _post(robot, {"stops": [stop], "tasks": {}}, now)
+
+
+def robot_replan(*, robot: Robot, now: datetime, held: HeldRoute | None = None) -> RobotPlan:
+    """Post the robot the best plan of what it holds now, or the dock plan if nothing."""
+    held = held or robot_route(robot=robot)
+    if held.is_empty:
+        return plan_dock_post(robot=robot, now=now)
+    plan = best_plan(held.route, router_for(robot.site).travel_time)
+    if plan is None:  # the server's account overloads the robot: keep its tasks' own order
+        logger.error("no feasible route for %s's tasks %s", robot.code, list(held.tasks))
+        stops = [stop for task in held.route.tasks for stop in (*task.pickups, *task.dropoffs)]
+    else:
+        stops = list(plan.stops)
+    return plan_post(robot=robot, start=held.route.start, stops=stops, tasks=held.tasks, now=now)
+
+
+def robot_dock_if_idle(*, robot: Robot, now: datetime) -> RobotPlan | None:
+    """Send a robot that has nothing left to do to its dock, unless that is its plan already."""
+    if not robot_route(robot=robot).is_empty:
+        return None
+    current = RobotPlan.objects.filter(robot=robot).first()
+    if current is not None and current.is_dock:
+        return None
+    return plan_dock_post(robot=robot, now=now)
+
+
+def plan_withdraw_pending(*, robot: Robot, reason: str, now: datetime) -> int:
+    """Take the robot's unacked plan off its board (protocol v1, withdrawing an assignment)."""
+    pending = BoardMessage.objects.pending().filter(robot=robot, key=PLAN_KEY)
+    return board_withdraw(messages=pending, reason=reason, now=now)
+
+
+def _post(robot: Robot, body: dict, now: datetime) -> RobotPlan:
+    current = RobotPlan.objects.filter(robot=robot).first()
+    version = max(current.version if current else 0, robot.plan_version) + 1
+    body = {"plan_version": version, **body}
+    message = board_post(
+        robot=robot, type=MessageType.PLAN, key=PLAN_KEY, body=body, supersede=True
+    )
+    if current is None:
+        return RobotPlan.objects.create(
+            robot=robot, version=version, body=body, message=message, posted_at=now
+        )
+    current.version, current.body, current.message, current.posted_at = version, body, message, now
+    current.save(update_fields=["version", "body", "message", "posted_at"])
+    return current
+
+
+def _wire_stops(router: Router, start: str, stops: Sequence[Stop]):
+    """The stops as the protocol sends them, and the seconds from now each is reached."""
+    wire, arrivals, previous, elapsed = [], [], start, 0.0
+    for stop in stops:
+        leg = router.leg(previous, stop.place)
+        entry = {
+            "task": stop.task,
+            "stop": stop.index,
+            "action": stop.action,
+            "waypoint": stop.place,
+        }
+        if leg.via:
+            entry["via"] = leg.via
+        wire.append(entry)
+        elapsed += leg.seconds
+        arrivals.append((stop.task, elapsed))
+        previous = stop.place
+    return wire, arrivals
+
+
+def _etas_store(tasks: dict[str, Task], arrivals, now: datetime) -> None:
+    """Each task's ETA: when the plan reaches its last stop."""
+    last = dict(arrivals)  # the last arrival of each task wins
+    changed = []
+    for code, seconds in last.items():
+        task = tasks[code]
+        task.eta = now + timedelta(seconds=seconds) if math.isfinite(seconds) else None
+        changed.append(task)
+    Task.objects.bulk_update(changed, ["eta"])

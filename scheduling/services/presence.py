@@ -1,0 +1,51 @@
+"""A robot that goes offline gives back the tasks it has not picked up (protocol v1)."""
+
+from datetime import datetime
+
+from robots.alerts import alert_raise
+from robots.models import AlertKind, Robot
+from scheduling.choices import ROUTE_STATUSES, Cause, TaskStatus
+from scheduling.models import Task
+from scheduling.services.history import allocation_enqueue, task_move
+from scheduling.services.plans import plan_withdraw_pending, robot_replan
+
+
+def robot_offline(*, robot: Robot, at: datetime) -> int:
+    """Make the robot's tasks with nothing on board due again; returns how many.
+
+    Called inside the presence change's transaction (robot row locked). Tasks with items on
+    board stay with it (silence never drops a load); operators are alerted about those. The
+    robot is posted a corrected plan, which it receives when it comes back.
+    """
+    tasks = list(
+        Task.objects.filter(robot=robot, status__in=ROUTE_STATUSES).prefetch_related("stops")
+    )
+    loaded = [task for task in tasks if any(stop.done_at for stop in task.stops.all())]
+    given_back = [task for task in tasks if task not in loaded]
+    for task in given_back:
+        _give_back(task, robot, at)
+    if loaded:
+        _alert_loaded(robot, loaded)
+    if given_back:
+        plan_withdraw_pending(robot=robot, reason=f"{robot.code} went offline", now=at)
+        robot_replan(robot=robot, now=at)
+    return len(given_back)
+
+
+def _give_back(task: Task, robot: Robot, at: datetime) -> None:
+    task.robot, task.ack_due_at, task.eta = None, None, None
+    fields = ["robot", "ack_due_at", "eta"]
+    task_move(task, TaskStatus.DUE, at=at, fields=fields, cause=Cause.PRESENCE, robot=robot)
+    allocation_enqueue(task.pk)
+
+
+def _alert_loaded(robot: Robot, tasks: list[Task]) -> None:
+    codes = ", ".join(task.code for task in tasks)
+    alert_raise(
+        site_id=robot.site_id,
+        kind=AlertKind.OFFLINE_WITH_LOAD,
+        key=f"offline-with-load:{robot.code}",
+        message=f"{robot.code} went offline carrying {codes}",
+        robot=robot,
+        task=tasks[0].code,
+    )

@@ -1,0 +1,175 @@
+"""Delivery requests: on-demand, scheduled, and periodic (which create instances on time)."""
+
+import logging
+from datetime import datetime, timedelta
+
+from django.db import IntegrityError, transaction
+from django.utils import timezone
+
+from robots.models import Site, Waypoint
+from scheduling.choices import Cause, Priority, StopAction, TaskStatus
+from scheduling.models import RecurringRequest, Task, TaskStop
+from scheduling.recurrence import next_occurrence, occurrences
+from scheduling.selectors import stations_by_code
+from scheduling.services.history import allocation_enqueue, task_record
+
+logger = logging.getLogger(__name__)
+
+# Instances of periodic requests are created this far ahead (the due sweep then makes them
+# due on time), and occurrences missed while nothing ran are still created this far back.
+RECURRING_LEAD = timedelta(minutes=10)
+RECURRING_CATCH_UP = timedelta(minutes=10)
+
+
+@transaction.atomic
+def task_request(
+    *,
+    site: Site,
+    requester,
+    sender: str,
+    receiver: str,
+    contents: str,
+    pickups: list[Waypoint],
+    dropoffs: list[Waypoint],
+    priority: str = Priority.NORMAL,
+    requested_time: datetime | None = None,
+    repeat: dict | None = None,
+    now: datetime | None = None,
+) -> Task:
+    """Create a delivery task (due at once unless requested for later), or with `repeat` a
+    periodic request and its first instance, which is returned."""
+    now = now or timezone.now()
+    what = {"sender": sender, "receiver": receiver, "contents": contents, "priority": priority}
+    if repeat is None:
+        return task_create(
+            site=site,
+            requester=requester,
+            what=what,
+            pickups=pickups,
+            dropoffs=dropoffs,
+            requested_time=requested_time or now,
+            now=now,
+        )
+    starts_at = max(requested_time or now, now)
+    recurring = _recurring_create(site, requester, what, pickups, dropoffs, repeat, starts_at)
+    first = next_occurrence(repeat, starts_at)
+    return _instance_create(recurring, first, pickups, dropoffs, now)
+
+
+def _recurring_create(site, requester, what, pickups, dropoffs, repeat, starts_at):
+    return RecurringRequest.objects.create(
+        site=site,
+        requester=requester,
+        pickups=[wp.code for wp in pickups],
+        dropoffs=[wp.code for wp in dropoffs],
+        repeat=repeat,
+        starts_at=starts_at,
+        **what,
+    )
+
+
+def task_create(
+    *,
+    site: Site,
+    requester,
+    what: dict,
+    pickups: list[Waypoint],
+    dropoffs: list[Waypoint],
+    requested_time: datetime,
+    now: datetime,
+    **extra,
+) -> Task:
+    """One task with its stops; allocated at once (on commit) if its time has come."""
+    due = requested_time <= now
+    task = Task.objects.create(
+        site=site,
+        requester=requester,
+        requested_time=requested_time,
+        status=TaskStatus.DUE if due else TaskStatus.SCHEDULED,
+        created_at=now,
+        **what,
+        **extra,
+    )
+    TaskStop.objects.bulk_create(task_stops_build(task, pickups, dropoffs))
+    cause = Cause.SCHEDULE if extra.get("recurring") else Cause.REQUEST
+    task_record(task, old="", at=now, cause=cause, user=requester)
+    if due:
+        allocation_enqueue(task.pk)
+    return task
+
+
+def task_stops_build(task: Task, pickups: list[Waypoint], dropoffs: list[Waypoint]):
+    """One-to-one, one-to-many (pick-up +k, each drop-off -1) or many-to-one (each pick-up
+    +1, drop-off -k); the pick-ups come first, so stop indexes put every drop-off after them."""
+    if len(pickups) != 1 and len(dropoffs) != 1:
+        raise ValueError("a task has exactly one pick-up or exactly one drop-off")
+    one_pickup = len(pickups) == 1
+    up = len(dropoffs) if one_pickup else 1
+    down = -1 if one_pickup else -len(pickups)
+    places = [(StopAction.PICKUP, wp, up) for wp in pickups]
+    places += [(StopAction.DROPOFF, wp, down) for wp in dropoffs]
+    return [
+        TaskStop(task=task, index=n, action=action, waypoint=wp, load_change=change)
+        for n, (action, wp, change) in enumerate(places)
+    ]
+
+
+def recurring_sweep(*, now: datetime | None = None) -> int:
+    """Create the instances of periodic requests that fall due soon; returns how many."""
+    now = now or timezone.now()
+    active = RecurringRequest.objects.filter(active=True).select_related("site", "requester")
+    return sum(recurring_instances_create(recurring=r, now=now) for r in active)
+
+
+def recurring_instances_create(*, recurring: RecurringRequest, now: datetime) -> int:
+    """Instances for the occurrences from a little before `now` to RECURRING_LEAD after it.
+
+    Idempotent: one instance per occurrence (unique constraint), however often it runs.
+    """
+    start = max(recurring.starts_at, now - RECURRING_CATCH_UP)
+    wanted = list(occurrences(recurring.repeat, start, now + RECURRING_LEAD))
+    existing = set(
+        recurring.instances.filter(scheduled_for__in=wanted).values_list("scheduled_for", flat=True)
+    )
+    missing = [at for at in wanted if at not in existing]
+    if not missing:
+        return 0
+    stations = stations_by_code(site=recurring.site, codes=recurring.pickups + recurring.dropoffs)
+    try:
+        pickups = [stations[code] for code in recurring.pickups]
+        dropoffs = [stations[code] for code in recurring.dropoffs]
+    except KeyError as gone:
+        logger.error(
+            "periodic request %s names station %s, no longer on the map", recurring.pk, gone
+        )
+        return 0
+    return sum(_instance_created(recurring, at, pickups, dropoffs, now) for at in missing)
+
+
+def _instance_created(recurring, at, pickups, dropoffs, now) -> bool:
+    try:
+        with transaction.atomic():
+            _instance_create(recurring, at, pickups, dropoffs, now)
+    except IntegrityError:  # created concurrently by another sweep
+        return False
+    return True
+
+
+def _instance_create(recurring, at, pickups, dropoffs, now) -> Task:
+    what = {
+        "sender": recurring.sender,
+        "receiver": recurring.receiver,
+        "contents": recurring.contents,
+        "priority": recurring.priority,
+    }
+    return task_create(
+        site=recurring.site,
+        requester=recurring.requester,
+        what=what,
+        pickups=pickups,
+        dropoffs=dropoffs,
+        requested_time=at,
+        now=now,
+        recurring=recurring,
+        scheduled_for=at,
+    )

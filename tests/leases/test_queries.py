@@ -1,0 +1,56 @@
+"""The heartbeat is the hot path: the query count of an acquire is asserted, not just measured."""
+
+import pytest
+from django.test import Client
+
+from robots.leases import lease_acquire
+from tests import factories
+from tests.leases.conftest import acquire, resource
+
+
+@pytest.fixture
+def post_heartbeat(robot):
+    client = Client()
+    url = f"/api/v1/robots/{robot.code}/heartbeat"
+    seq = iter(range(1, 100))
+
+    def post(**fields):
+        body = factories.heartbeat_body(next(seq), **fields)
+        response = client.post(
+            url, body, content_type="application/json", HTTP_AUTHORIZATION=f"Bearer {robot.token}"
+        )
+        assert response.status_code == 200, response.content
+        return response.json()["messages"]
+
+    post()  # first contact: boot record, presence change, map cache
+    return post
+
+
+# A plain heartbeat takes 6 (auth, savepoint, lock robot, update robot, read board, release
+# savepoint); a request adds 2 in boards (find requests seen before, insert the new one) and 4
+# here: lock the resource, read its live leases, insert the lease, insert its message.
+ACQUIRE_QUERIES = 12
+
+
+def test_it_grants_an_acquire_in_twelve_queries(post_heartbeat, django_assert_num_queries):
+    with django_assert_num_queries(ACQUIRE_QUERIES):
+        messages = post_heartbeat(requests=[acquire("ELEV", to_floor="2F")])
+
+    assert [m["type"] for m in messages] == ["resource_grant"]
+
+
+def test_it_queues_an_acquire_in_as_many(post_heartbeat, site, django_assert_num_queries):
+    holder = factories.robot_create(site, "R2")
+    lease_acquire(robot=holder, resource=resource("ELEV"), request_id="q-1", to_floor="3F")
+
+    with django_assert_num_queries(ACQUIRE_QUERIES):
+        messages = post_heartbeat(requests=[acquire("ELEV", to_floor="2F")])
+
+    assert [m["type"] for m in messages] == ["resource_queued"]
+
+
+def test_it_costs_a_heartbeat_without_resource_business_nothing_more(
+    post_heartbeat, django_assert_num_queries
+):
+    with django_assert_num_queries(6):
+        post_heartbeat()
