@@ -138,6 +138,13 @@ SPECTACULAR_SETTINGS = {
     "COMPONENT_SPLIT_REQUEST": True,
 }
 
+# How the scheduler gives out tasks: "multi" (online multi-task allocation: a robot on its way
+# may take more) or "single" (a robot takes a task only when it holds none, as hospital fleets
+# did before the source paper; kept to measure the difference, see bench/fleet_day.py).
+ALLOCATION_POLICY = env_str("ALLOCATION_POLICY", "multi")
+if ALLOCATION_POLICY not in ("multi", "single"):
+    raise ImproperlyConfigured(f"ALLOCATION_POLICY={ALLOCATION_POLICY!r}: use multi or single")
+
 # Robot heartbeat bodies above this size are refused with 413 (protocol v1).
 HEARTBEAT_MAX_BYTES = 64 * 1024
 
