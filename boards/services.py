@@ -91,15 +91,7 @@ def heartbeat_apply(*, robot_id: int, heartbeat: dict, now: datetime | None = No
 
 def _events_record(robot: Robot, heartbeat: dict, now: datetime) -> list[RobotEvent]:
     """Store the events not seen before, in the robot's order; return only those."""
-    incoming = _first_of_each_id(heartbeat["events"])
-    if not incoming:
-        return []
-    seen = set(
-        RobotEvent.objects.filter(robot=robot, event_id__in=list(incoming)).values_list(
-            "event_id", flat=True
-        )
-    )
-    new_events = [
+    return RobotEvent.objects.bulk_create(
         RobotEvent(
             robot=robot,
             event_id=event_id,
@@ -113,22 +105,13 @@ def _events_record(robot: Robot, heartbeat: dict, now: datetime) -> list[RobotEv
             boot_id=heartbeat["boot_id"],
             seq=heartbeat["seq"],
         )
-        for event_id, event in incoming.items()
-        if event_id not in seen
-    ]
-    return RobotEvent.objects.bulk_create(new_events)
+        for event_id, event in _unseen(robot, RobotEvent, "event_id", heartbeat["events"])
+    )
 
 
 def _requests_record(robot: Robot, requests: list[dict], now: datetime) -> list[RobotRequest]:
-    incoming = _first_of_each_id(requests)
-    if not incoming:
-        return []
-    seen = set(
-        RobotRequest.objects.filter(robot=robot, request_id__in=list(incoming)).values_list(
-            "request_id", flat=True
-        )
-    )
-    new_requests = [
+    """Store the acquire/release requests not seen before; return only those."""
+    return RobotRequest.objects.bulk_create(
         RobotRequest(
             robot=robot,
             request_id=request_id,
@@ -138,10 +121,24 @@ def _requests_record(robot: Robot, requests: list[dict], now: datetime) -> list[
             data=request["raw"],
             received_at=now,
         )
-        for request_id, request in incoming.items()
-        if request_id not in seen
-    ]
-    return RobotRequest.objects.bulk_create(new_requests)
+        for request_id, request in _unseen(robot, RobotRequest, "request_id", requests)
+    )
+
+
+def _unseen(robot: Robot, model, id_field: str, items: list[dict]) -> list[tuple[str, dict]]:
+    """(id, item) of the items whose id the robot never sent before, first of each id, in order.
+
+    Race-free because the robot's row is locked: its heartbeats are applied one at a time.
+    """
+    incoming = _first_of_each_id(items)
+    if not incoming:
+        return []
+    seen = set(
+        model.objects.filter(robot=robot, **{f"{id_field}__in": list(incoming)}).values_list(
+            id_field, flat=True
+        )
+    )
+    return [(item_id, item) for item_id, item in incoming.items() if item_id not in seen]
 
 
 def _first_of_each_id(items: list[dict]) -> dict[str, dict]:

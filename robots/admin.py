@@ -177,22 +177,8 @@ class RobotAdmin(admin.ModelAdmin):
     list_select_related = ["site", "floor", "waypoint"]
     actions = ["issue_token"]
     inlines = [PresenceChangeInline]
-    reported = [
-        "status",
-        "floor",
-        "waypoint",
-        "x",
-        "y",
-        "heading",
-        "battery",
-        "load",
-        "plan_version",
-        "errors",
-        "reported_at",
-        "boot_id",
-        "seq",
-    ]
-    presence_fields = ["presence", "last_seen_at", "unreachable_at", "offline_at"]
+    reported = [*Robot.STATE_FIELDS, "boot_id", "seq"]
+    presence_fields = Robot.PRESENCE_FIELDS
     fieldsets = [
         (None, {"fields": ["code", "name", "site", "dock", "capacity", "token_issued_at"]}),
         ("Presence", {"fields": presence_fields}),

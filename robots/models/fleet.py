@@ -56,6 +56,22 @@ class Robot(models.Model):
 
     objects = RobotQuerySet.as_manager()
 
+    # Written by each fresh heartbeat, and by each heartbeat or sweep, respectively.
+    STATE_FIELDS = [
+        "status",
+        "floor",
+        "waypoint",
+        "x",
+        "y",
+        "heading",
+        "battery",
+        "load",
+        "plan_version",
+        "errors",
+        "reported_at",
+    ]
+    PRESENCE_FIELDS = ["presence", "last_seen_at", "unreachable_at", "offline_at"]
+
     class Meta:
         ordering = ["code"]
         constraints = [
@@ -105,21 +121,6 @@ class Robot(models.Model):
         self.plan_version = state["plan_version"]
         self.errors = state.get("errors", [])
         self.reported_at = now
-
-    STATE_FIELDS = [
-        "status",
-        "floor",
-        "waypoint",
-        "x",
-        "y",
-        "heading",
-        "battery",
-        "load",
-        "plan_version",
-        "errors",
-        "reported_at",
-    ]
-    PRESENCE_FIELDS = ["presence", "last_seen_at", "unreachable_at", "offline_at"]
 
 
 class RobotBoot(models.Model):
