@@ -64,6 +64,7 @@ TEMPLATES = [
                 "django.template.context_processors.request",
                 "django.contrib.auth.context_processors.auth",
                 "django.contrib.messages.context_processors.messages",
+                "hospital_delivery.context_processors.pages",
             ],
         },
     },
@@ -92,6 +93,12 @@ DEFAULT_AUTO_FIELD = "django.db.models.BigAutoField"
 
 REDIS_URL = env_str("REDIS_URL", "redis://127.0.0.1:6379/0")
 
+# Where the pages' websockets connect. Pages are served by gunicorn (HTTP), websockets by daphne
+# on another port (Procfile), so by default a page connects to ws(s)://<its own host>:PORT_WS.
+# WEBSOCKET_URL (e.g. wss://fleet.example.org, behind a proxy) overrides that.
+WEBSOCKET_URL = env_str("WEBSOCKET_URL", "")
+WEBSOCKET_PORT = env_int("WEBSOCKET_PORT", env_int("PORT_WS", 8001, minimum=1), minimum=1)
+
 CACHES = {
     "default": {"BACKEND": "django.core.cache.backends.locmem.LocMemCache"},
 }
@@ -112,6 +119,9 @@ USE_TZ = True
 STATIC_URL = "static/"
 STATICFILES_DIRS = [BASE_DIR / "static"]
 STATIC_ROOT = BASE_DIR / "var" / "staticfiles"
+# Also serve straight from the apps' and static/ directories (found at start-up), so the pages
+# work where `collectstatic` has not run (test servers); run.sh collects them anyway.
+WHITENOISE_USE_FINDERS = True
 STORAGES = {
     "default": {"BACKEND": "django.core.files.storage.FileSystemStorage"},
     "staticfiles": {"BACKEND": "whitenoise.storage.CompressedStaticFilesStorage"},
@@ -158,6 +168,9 @@ CHANNEL_LAYERS = {
 }
 
 CELERY_BROKER_URL = REDIS_URL
+# The queue tasks are sent to and the worker reads (two deployments, or test servers, sharing one
+# Redis database keep apart by naming their own).
+CELERY_TASK_DEFAULT_QUEUE = env_str("CELERY_QUEUE", "celery")
 CELERY_TASK_IGNORE_RESULT = True
 CELERY_TASK_ACKS_LATE = True
 CELERY_WORKER_PREFETCH_MULTIPLIER = 1

@@ -178,7 +178,7 @@ class RobotAdmin(admin.ModelAdmin):
     actions = ["issue_token"]
     inlines = [PresenceChangeInline]
     reported = [*Robot.STATE_FIELDS, "boot_id", "seq"]
-    presence_fields = Robot.PRESENCE_FIELDS
+    presence_fields = [*Robot.PRESENCE_FIELDS, "paused_by_operator"]
     fieldsets = [
         (None, {"fields": ["code", "name", "site", "dock", "capacity", "token_issued_at"]}),
         ("Presence", {"fields": presence_fields}),

@@ -62,3 +62,11 @@ class LeaseEndCause(models.TextChoices):
     GRANT_TIMEOUT = "grant_timeout", "Grant not taken up before it expired"
     ROBOT_OFFLINE = "robot_offline", "Robot went offline while waiting"
     ADMIN = "admin", "Administrator"
+
+
+class OperatorActionKind(models.TextChoices):
+    """What an operator can tell a robot (protocol v1 `action` message)."""
+
+    PAUSE = "pause", "Pause"
+    RESUME = "resume", "Resume"
+    RETURN_TO_DOCK = "return_to_dock", "Return to dock"

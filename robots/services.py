@@ -2,6 +2,9 @@
 
 A heartbeat stores when the robot will become unreachable and offline; the sweep flips only
 rows whose deadline has passed, each flip claimed by a conditional UPDATE and recorded.
+
+Live pages get a "robot" event (robots.wire) after commit whenever a heartbeat or the sweep
+changes what they show of a robot; built from the loaded row and the cached map, no query.
 """
 
 from datetime import datetime
@@ -10,10 +13,12 @@ from django.db import transaction
 from django.db.models import Q
 from django.utils import timezone
 
+from boards.events import publish_on_commit
 from hospital_delivery.tokens import token_new
 from robots.choices import Presence
 from robots.models import PresenceChange, Robot, RobotBoot
 from robots.signals import presence_changed
+from robots.wire import last_seen_refresh_due, robot_visible, robot_wire
 
 
 def robot_authenticate(*, token: str) -> Robot | None:
@@ -53,6 +58,7 @@ def robot_heartbeat_record(
     Returns whether the state was applied. Call with the robot locked (robot_lock).
     """
     fresh = _heartbeat_is_newest(robot, boot_id, seq, now)
+    shown, last_seen = robot_visible(robot), robot.last_seen_at
     update_fields = list(Robot.PRESENCE_FIELDS)
     if fresh:
         robot.apply_state(state, now)
@@ -62,7 +68,17 @@ def robot_heartbeat_record(
     robot.save(update_fields=update_fields)
     if previous is not None:
         _presence_record(robot, old=previous, new=Presence.ONLINE, at=now, cause="heartbeat")
+    if robot_visible(robot) != shown or last_seen_refresh_due(last_seen, now):
+        robot_publish(robot=robot)
     return fresh
+
+
+def robot_publish(*, robot: Robot) -> None:
+    """Tell the site's live pages the robot's state as it is now, once the transaction commits.
+
+    No query: robot.site must be loaded (robot_lock and the sweep load it).
+    """
+    publish_on_commit(site_id=robot.site_id, kind="robot", data=robot_wire(robot))
 
 
 def _heartbeat_is_newest(robot: Robot, boot_id: str, seq: int, now: datetime) -> bool:
@@ -95,6 +111,7 @@ def presence_sweep_step(*, robot: Robot, now: datetime) -> int:
         return 0  # a heartbeat or another sweeper got there first
     old, robot.presence = robot.presence, new
     _presence_record(robot, old=old, new=new, at=now, cause=PresenceChange.Cause.SWEEP)
+    robot_publish(robot=robot)
     return 1
 
 

@@ -20,6 +20,7 @@ from robots.models import Edge, Floor, Resource, ResourceWaypoint, Site, Waypoin
 
 _cache: dict[int, SiteMap] = {}
 _routers: dict[int, Router] = {}
+_by_id: dict[int, tuple[SiteMap, dict[int, str], dict[int, str]]] = {}
 _cache_lock = Lock()
 
 
@@ -42,6 +43,28 @@ def router_for(site: Site) -> Router:
     if router is None or router.site_map is not current:
         router = _routers[site.pk] = Router(current)
     return router
+
+
+def waypoint_by_id(site: Site, waypoint_id: int | None) -> MapWaypoint | None:
+    """The current map's waypoint with this id (None for None, or one gone from the map)."""
+    current, waypoints, _floors = _ids(site)
+    code = waypoints.get(waypoint_id)
+    return current.waypoints[code] if code else None
+
+
+def floor_code_by_id(site: Site, floor_id: int | None) -> str | None:
+    return _ids(site)[2].get(floor_id)
+
+
+def _ids(site: Site) -> tuple[SiteMap, dict[int, str], dict[int, str]]:
+    """The current map with its waypoint and floor codes by id, built once per map."""
+    current = site_map(site)
+    cached = _by_id.get(site.pk)
+    if cached is None or cached[0] is not current:
+        waypoints = {wp.id: wp.code for wp in current.waypoints.values()}
+        floors = {pk: code for code, pk in current.floor_ids.items()}
+        cached = _by_id[site.pk] = (current, waypoints, floors)
+    return cached
 
 
 def _load(site: Site) -> SiteMap:

@@ -9,7 +9,11 @@ side:
 * acks and resource requests likewise travel until answered;
 * board messages are applied once each, de-duplicated by id, and acked after they are applied;
 * a plan is applied only when its plan_version is newer than the one applied;
-* `seq` grows by one per heartbeat and `boot_id` is new each time the software starts.
+* `seq` grows by one per heartbeat and `boot_id` is new each time the software starts;
+* an event or request the server refuses (400 naming it) can be dropped, so that one bad item
+  does not block every later heartbeat (drop_refused);
+* with the optional push channel (listen_for_wakes) it heartbeats at once when woken, and
+  once after every (re)connection, for whatever was posted while the socket was down.
 
 Usage::
 
@@ -23,6 +27,7 @@ Usage::
 
 import json
 import logging
+import re
 import threading
 import uuid
 from collections import OrderedDict
@@ -41,12 +46,22 @@ class TransportError(Exception):
 
 
 class RefusedError(Exception):
-    """The server refused the heartbeat (4xx): nothing of it was applied. Fix the robot."""
+    """The server refused the heartbeat (4xx): nothing of it was applied.
 
-    def __init__(self, status: int, body: dict | str):
+    `body` is the server's answer; `sent` the heartbeat it refused. A 400 names the offending
+    fields ("events[3].task", "requests[0].to_floor"): see RobotClient.drop_refused.
+    """
+
+    def __init__(self, status: int, body: dict | str, sent: dict | None = None):
         super().__init__(f"heartbeat refused with {status}: {body}")
         self.status = status
         self.body = body
+        self.sent = sent or {}
+
+    @property
+    def fields(self) -> list[str]:
+        detail = self.body.get("detail") if isinstance(self.body, dict) else None
+        return list(detail) if isinstance(detail, dict) else []
 
 
 class HttpTransport:
@@ -128,6 +143,37 @@ class RobotClient:
         with self._lock:
             return len(self._events) + len(self._acks) + len(self._requests)
 
+    def delivered(self, item_id: str) -> bool:
+        """Whether the server has the event or request `item_id` (a heartbeat carrying it was
+        answered). A robot about to lose the network, say boarding an elevator, waits for its
+        `resource_entered` to be delivered first."""
+        with self._lock:
+            pending = (*self._events, *self._requests)
+            return all(item["id"] != item_id for item in pending)
+
+    def drop_refused(self, refused: RefusedError) -> list[dict]:
+        """Drop the events and requests a 400 named ("events[3].task"); returns them.
+
+        Resending them would be refused again, and with them every later heartbeat. Nothing
+        else is dropped: a 400 about the state only is fixed by the next state.
+        """
+        named = {"events": set(), "requests": set()}
+        for path in refused.fields:
+            found = re.match(r"(events|requests)\[(\d+)\]", path)
+            if found:
+                items = refused.sent.get(found[1], [])
+                index = int(found[2])
+                if index < len(items):
+                    named[found[1]].add(items[index]["id"])
+        with self._lock:
+            dropped = [e for e in self._events if e["id"] in named["events"]]
+            dropped += [r for r in self._requests if r["id"] in named["requests"]]
+            self._events = [e for e in self._events if e["id"] not in named["events"]]
+            self._requests = [r for r in self._requests if r["id"] not in named["requests"]]
+        for item in dropped:
+            logger.error("%s: dropped %s refused by the server: %s", self.robot, item, refused)
+        return dropped
+
     # --- What the server tells the robot -------------------------------------------------
 
     def on(self, message_type: str, handler: Handler) -> None:
@@ -152,7 +198,7 @@ class RobotClient:
                 logger.warning("%s: server error %d; will retry", self.robot, status)
                 return None
             if status != 200:
-                raise RefusedError(status, reply)
+                raise RefusedError(status, reply, body)
             self._answered(body)
             self.heartbeat_interval = float(reply.get("heartbeat_interval", 1.0))
             return self._receive(reply.get("messages", []))
@@ -207,8 +253,9 @@ class RobotClient:
         while not stop.is_set():
             try:
                 self.heartbeat()
-            except RefusedError:
-                logger.exception("%s: heartbeat refused", self.robot)
+            except RefusedError as refused:
+                logger.error("%s: heartbeat refused: %s", self.robot, refused)
+                self.drop_refused(refused)
             self.wake.wait(timeout=self.heartbeat_interval)
             self.wake.clear()
 
@@ -220,7 +267,9 @@ def push_url(server_ws_url: str, robot: str) -> str:
 def listen_for_wakes(client: RobotClient, *, ws_url: str, token: str, stop: threading.Event):
     """The optional push channel: wake the client's loop whenever the server posts for it.
 
-    Runs until stop is set, reconnecting after failures; losing it costs only latency.
+    Runs until stop is set, reconnecting after failures; losing it costs only latency. After
+    every (re)connection the client is woken once: wakes sent while the socket was down are
+    lost, and what they announced is on the board.
     """
     from websockets.exceptions import WebSocketException
     from websockets.sync.client import connect
@@ -229,6 +278,7 @@ def listen_for_wakes(client: RobotClient, *, ws_url: str, token: str, stop: thre
     while not stop.is_set():
         try:
             with connect(push_url(ws_url, client.robot), additional_headers=headers) as socket:
+                client.wake.set()
                 while not stop.is_set():
                     try:
                         frame = socket.recv(timeout=1.0)
@@ -237,5 +287,7 @@ def listen_for_wakes(client: RobotClient, *, ws_url: str, token: str, stop: thre
                     if json.loads(frame).get("type") == "wake":
                         client.wake.set()
         except (OSError, WebSocketException) as exc:
-            logger.debug("%s: push channel down (%s); reconnecting", client.robot, exc)
+            refused = getattr(getattr(exc, "rcvd", None), "code", None) in (4401, 4403)
+            log = logger.warning if refused else logger.debug  # 4401/4403: a wrong token
+            log("%s: push channel down (%s); reconnecting", client.robot, exc)
             stop.wait(timeout=2.0)

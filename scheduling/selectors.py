@@ -1,17 +1,20 @@
-"""Reads: robots' remaining routes for the allocator, and tasks for the API."""
+"""Reads: robots' remaining routes for the allocator, tasks for the API, and what the pages
+show (the schedule table, robots' current tasks and plans)."""
 
 from collections import defaultdict
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from datetime import datetime, timedelta
 
-from django.db.models import Prefetch, QuerySet
+from django.db.models import Case, IntegerField, Prefetch, Q, QuerySet, Value, When
 
 from robots.choices import WaypointKind
 from robots.models import Robot, Site, Waypoint
 from robots.selectors import robot_position, waypoint_code
+from robots.sitemap import site_map, waypoint_by_id
 from scheduling.allocator import RobotRoute, Stop, TaskStops
-from scheduling.choices import ROUTE_STATUSES, StopAction
-from scheduling.models import Task, TaskStop, TaskTransition
+from scheduling.choices import FINISHED_STATUSES, HELD_STATUSES, ROUTE_STATUSES, StopAction
+from scheduling.models import RobotPlan, Task, TaskStop, TaskTransition
 
 
 @dataclass(frozen=True)
@@ -100,3 +103,117 @@ def task_detail(*, code: str) -> Task | None:
     return (
         task_list().prefetch_related(Prefetch("history", queryset=history)).with_code(code).first()
     )
+
+
+# --- Pages -------------------------------------------------------------------------------------
+
+SCHEDULE_ROWS = 200  # the schedule table shows at most this many tasks
+RECENTLY_FINISHED = timedelta(minutes=30)  # finished tasks stay in the table this long
+
+
+@dataclass(frozen=True)
+class ScheduleRow:
+    task: Task
+    pickups: list[str]  # station names
+    dropoffs: list[str]
+
+    @property
+    def finished(self) -> bool:
+        return self.task.status in FINISHED_STATUSES
+
+
+def schedule_for_site(*, site: Site, now: datetime) -> list[ScheduleRow]:
+    """The schedule table (the paper's Figure 4b): every task not finished, by requested time,
+    then those finished within RECENTLY_FINISHED, newest first. Two queries, however many rows;
+    station names come from the cached map."""
+    since = now - RECENTLY_FINISHED
+    recent = Q(completed_at__gte=since) | Q(cancelled_at__gte=since) | Q(failed_at__gte=since)
+    finished = Case(
+        When(status__in=FINISHED_STATUSES, then=Value(1)),
+        default=Value(0),
+        output_field=IntegerField(),
+    )
+    tasks = (
+        Task.objects.filter(site=site)
+        .filter(~Q(status__in=FINISHED_STATUSES) | recent)
+        .annotate(finished=finished)
+        .order_by("finished", "requested_time", "pk")
+        .select_related("robot")
+        .prefetch_related(Prefetch("stops", queryset=TaskStop.objects.order_by("index")))
+    )
+    rows = [_schedule_row(site, task) for task in tasks[:SCHEDULE_ROWS]]
+    done = [row for row in rows if row.finished]
+    return [row for row in rows if not row.finished] + done[::-1]
+
+
+def _schedule_row(site: Site, task: Task) -> ScheduleRow:
+    stops = [stop for stop in task.stops.all() if stop.skipped_at is None]
+    return ScheduleRow(
+        task=task,
+        pickups=[_label(site, s) for s in stops if s.action == StopAction.PICKUP],
+        dropoffs=[_label(site, s) for s in stops if s.action == StopAction.DROPOFF],
+    )
+
+
+def _label(site: Site, stop: TaskStop) -> str:
+    waypoint = waypoint_by_id(site, stop.waypoint_id)
+    return waypoint.label if waypoint else "?"
+
+
+def stations_for_site(*, site: Site) -> list[tuple[str, str]]:
+    """(code, name) of the stations nurses can pick, by name (from the cached map)."""
+    stations = site_map(site).codes_of_kind(WaypointKind.STATION)
+    waypoints = site_map(site).waypoints
+    return sorted(((code, waypoints[code].label) for code in stations), key=lambda s: s[1])
+
+
+def tasks_by_robot(*, robots: Iterable[Robot]) -> dict[int, list[Task]]:
+    """The tasks each robot holds (assigned to delivered), oldest first; one query."""
+    held: dict[int, list[Task]] = defaultdict(list)
+    tasks = Task.objects.filter(robot__in=list(robots), status__in=HELD_STATUSES).order_by("pk")
+    for task in tasks.only("pk", "robot_id", "status", "contents", "return_trip"):
+        held[task.robot_id].append(task)
+    return held
+
+
+@dataclass(frozen=True)
+class PlanStop:
+    task: str | None
+    stop: int | None
+    action: str
+    waypoint: str
+    place: str
+    via: list[str]
+
+
+@dataclass(frozen=True)
+class PlanView:
+    version: int
+    posted_at: datetime
+    acked_at: datetime | None
+    stops: list[PlanStop]
+
+
+def robot_plan(*, robot: Robot) -> PlanView | None:
+    """The last plan posted for the robot, its places named from the cached map; one query."""
+    plan = RobotPlan.objects.filter(robot=robot).select_related("message").first()
+    if plan is None:
+        return None
+    places = site_map(robot.site).waypoints
+
+    def place(code: str) -> str:
+        return places[code].label if code in places else code
+
+    stops = [
+        PlanStop(
+            task=stop.get("task"),
+            stop=stop.get("stop"),
+            action=stop.get("action", ""),
+            waypoint=stop.get("waypoint", ""),
+            place=place(stop.get("waypoint", "")),
+            via=[place(code) for code in stop.get("via", [])],
+        )
+        for stop in plan.body.get("stops", [])
+    ]
+    acked_at = plan.message.acked_at if plan.message else None
+    return PlanView(version=plan.version, posted_at=plan.posted_at, acked_at=acked_at, stops=stops)

@@ -91,19 +91,28 @@ check_ports_free() {
 # processes start, and must be idempotent (run.sh runs them on every start).
 
 # HOOK demo users: create the demo accounts (e.g. an admin and a ward nurse) when missing.
+# Groups nurse and operator, users admin/operator/nurse; passwords generated once into
+# var/demo_logins.json (mode 600) and printed on every start.
 hook_create_demo_users() {
-    :
+    python manage.py demo_setup --only users
 }
 
 # HOOK robot tokens: issue API tokens for the simulated robots (e.g. into var/), for the fleet.
+# New tokens for the site's robots and the request generator's user, with the server's URLs,
+# into var/fleet.json (mode 600), which the fleet process reads.
 hook_issue_robot_tokens() {
-    :
+    python manage.py demo_setup --only fleet --site-file "${SITE_FILE}" \
+        --server-url "http://127.0.0.1:${PORT_HTTP}" --ws-url "ws://127.0.0.1:${PORT_WS}"
 }
 
 # HOOK simulated fleet: prepare whatever the `fleet:` Procfile line needs. The fleet process
 # itself is started by honcho: add a `fleet:` line to the Procfile.
+# FLEET_SPEEDUP (default 10: a delivery across floors takes well under a minute of real time)
+# and FLEET_TRAFFIC (random deliveries per simulated hour, default 6) tune it.
 hook_prepare_fleet() {
-    :
+    export FLEET_SPEEDUP="${FLEET_SPEEDUP:-10}"
+    export FLEET_TRAFFIC="${FLEET_TRAFFIC:-6}"
+    [[ -s var/fleet.json ]] || die "var/fleet.json is missing (demo_setup did not write it)"
 }
 # ---------------------------------------------------------------------------------------------
 
@@ -128,7 +137,10 @@ cat >&2 <<EOF
 
   hospital_delivery is starting: open http://127.0.0.1:${PORT_HTTP}/
   (admin: http://127.0.0.1:${PORT_HTTP}/admin/, API docs: http://127.0.0.1:${PORT_HTTP}/api/docs/,
-   websockets on 127.0.0.1:${PORT_WS}). Ctrl-C stops everything.
+   websockets on 127.0.0.1:${PORT_WS}). Log in with a demo login printed above.
+  Simulated robots drive the site at ${FLEET_SPEEDUP}x real time (a delivery across floors takes
+  well under a minute), with ${FLEET_TRAFFIC} random deliveries per simulated hour.
+  Ctrl-C stops everything.
 
 EOF
 exec "${VENV_DIR}/bin/honcho" start -f Procfile

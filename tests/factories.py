@@ -5,6 +5,7 @@ import itertools
 import uuid
 
 from django.contrib.auth import get_user_model
+from django.contrib.auth.models import Group
 
 from hospital_delivery.models import ApiToken
 from robots.models import Robot, Site
@@ -119,6 +120,20 @@ def staff_create(username: str = "operator", **fields):
     fields.setdefault("is_staff", True)
     user = get_user_model().objects.create_user(username=username, password="pw-12345!", **fields)
     user.api_token_plain = ApiToken.issue(user)
+    return user
+
+
+PASSWORD = "pw-12345!"
+
+
+def user_create(username: str, *groups: str, **fields):
+    """A user of the pages in `groups` ("nurse", "operator"; none: may not use them).
+
+    The groups come from a data migration, but transactional tests flush them: made if missing.
+    """
+    user = get_user_model().objects.create_user(username=username, password=PASSWORD, **fields)
+    for name in groups:
+        user.groups.add(Group.objects.get_or_create(name=name)[0])
     return user
 
 

@@ -1,11 +1,12 @@
-"""Real servers for tests: gunicorn and a Celery worker, run the way the README runs them in
-production, on the test database (and the test Redis database, from REDIS_URL)."""
+"""Real servers for tests: gunicorn, daphne and a Celery worker, run the way the README runs
+them in production, on the test database (and the test Redis database, from REDIS_URL)."""
 
 import os
 import socket
 import subprocess
 import sys
 import time
+import uuid
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -63,6 +64,48 @@ def gunicorn(*, workers: int = 2, env: dict | None = None):
         process.wait(timeout=15)
 
 
+class Daphne:
+    """daphne serving the Channels application (websockets), as the Procfile's `ws` process.
+
+    It can be stopped and started again on the same port (a restart, as pages see it).
+    """
+
+    def __init__(self, env: dict | None = None):
+        self.port, self.env, self.process = free_port(), server_env(env), None
+
+    @property
+    def url(self) -> str:
+        return f"ws://127.0.0.1:{self.port}"
+
+    def start(self) -> None:
+        command = [
+            *(sys.executable, "-m", "daphne", "--bind", "127.0.0.1", "--port", str(self.port)),
+            *("--application-close-timeout", "3", "--verbosity", "0"),
+            "hospital_delivery.asgi:application",
+        ]
+        self.process = subprocess.Popen(command, cwd=REPO, env=self.env)
+        wait_for_port(self.port, self.process)
+
+    def stop(self) -> None:
+        self.process.terminate()
+        try:
+            self.process.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait(timeout=5)
+
+
+@contextmanager
+def daphne(*, env: dict | None = None):
+    """A running Daphne; give its url to gunicorn as WEBSOCKET_URL so pages connect to it."""
+    server = Daphne(env)
+    server.start()
+    try:
+        yield server
+    finally:
+        server.stop()
+
+
 def server_env(env: dict | None = None) -> dict:
     return {
         **os.environ,
@@ -109,6 +152,24 @@ class CeleryWorker:
 
     def wait_idle(self, timeout: float = 30.0) -> None:
         poll(self.is_idle, timeout=timeout, interval=0.1, what="an idle celery worker")
+
+
+@contextmanager
+def celery_sink(name: str):
+    """Messages this process sends to Celery (allocation on commit) go to a queue of their own,
+    which no worker reads, and which is deleted afterwards. Yields the queue's name, for
+    servers started meanwhile (their CELERY_QUEUE)."""
+    from hospital_delivery.celery import app
+
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
+    queue = f"hd-test-{name}-{worker}-{uuid.uuid4().hex[:8]}"
+    previous = app.conf.task_default_queue
+    app.conf.task_default_queue = queue
+    try:
+        yield queue
+    finally:
+        app.conf.task_default_queue = previous
+        celery_queue_delete(app, queue)
 
 
 def celery_queue_delete(app, queue: str) -> None:

@@ -5,7 +5,7 @@ from django.db import models
 from django.db.models import Q
 from django.utils import timezone
 
-from scheduling.choices import Cause, Priority, StopAction, TaskStatus
+from scheduling.choices import FINISHED_STATUSES, Cause, Priority, StopAction, TaskStatus
 
 CODE_PREFIX = "T-"
 
@@ -110,6 +110,13 @@ class Task(models.Model):
     @property
     def code(self) -> str:
         return task_code(self.pk)
+
+    @property
+    def is_cancellable(self) -> bool:
+        """Whether a user may still cancel it (scheduling.services.task_cancel decides for sure):
+        not delivered, not finished, not already on its way back."""
+        finished = self.status in FINISHED_STATUSES or self.status == TaskStatus.DELIVERED
+        return not finished and not self.return_trip
 
     def wire(self) -> dict:
         """What a robot's plan says about the task (protocol v1, plan `tasks`)."""

@@ -21,7 +21,7 @@ changed only under that robot's lock; tasks without one only by conditional upda
 from scheduling.services.allocation import due_sweep, task_allocate
 from scheduling.services.cancellation import TaskNotCancellable, task_cancel
 from scheduling.services.events import heartbeat_tasks_apply
-from scheduling.services.presence import robot_offline
+from scheduling.services.presence import robot_offline, robot_tasks_give_back
 from scheduling.services.requests import recurring_sweep, task_request
 from scheduling.services.timeouts import ack_timeout_sweep
 
@@ -32,6 +32,7 @@ __all__ = [
     "heartbeat_tasks_apply",
     "recurring_sweep",
     "robot_offline",
+    "robot_tasks_give_back",
     "task_allocate",
     "task_cancel",
     "task_request",

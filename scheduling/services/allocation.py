@@ -4,12 +4,16 @@ Runs under the site's allocation lock (AllocationLock row), taken first and only
 workers never allocate on one site at once. Then it locks the one chosen robot. Everything
 else that changes a robot's route holds that robot's lock, so the chosen robot's route is
 read again under its lock, and the plan is built on that.
+
+With settings.ALLOCATION_POLICY = "single" only robots holding no task are candidates: single-task
+allocation, as hospital fleets ran before the source paper (measured in bench/fleet_day.py).
 """
 
 import logging
 from dataclasses import dataclass
 from datetime import datetime, timedelta
 
+from django.conf import settings
 from django.db import transaction
 from django.db.models import Case, IntegerField, Value, When
 from django.utils import timezone
@@ -30,6 +34,7 @@ logger = logging.getLogger(__name__)
 DUE_BATCH = 200  # tasks one due sweep allocates at most; the next sweep takes the rest
 NO_ROBOT = "no robot available (online, not paused or in error, battery above the threshold)"
 NO_ROUTE = "no available robot can fit it in its route (capacity or unreachable stops)"
+NO_EMPTY_ROBOT = "no available robot is empty (single-task allocation)"
 
 
 def task_allocate(*, task_id: int, now: datetime | None = None) -> bool:
@@ -105,9 +110,10 @@ def _allocation_lock(site_id: int) -> Site:
 def _allocate(task: Task, site: Site, now: datetime) -> bool:
     new = task_stops(task, task.stops.all(), site=site)
     routes = robot_routes(robots=robots_for_allocation(site=site))
-    choice = _choose(new, task, routes, router_for(site).travel_time)
+    candidates = _candidates(routes)
+    choice = _choose(new, task, candidates, router_for(site).travel_time)
     if choice is None:
-        _wait(task, NO_ROUTE if routes else NO_ROBOT)
+        _wait(task, _why_not(routes, candidates))
         return False
     read = routes[choice.robot_id]
     robot = robot_lock(choice.robot_id)
@@ -120,6 +126,20 @@ def _allocate(task: Task, site: Site, now: datetime) -> bool:
             return False
         stops = plan.stops
     return _assign(task, robot, held, stops, now)
+
+
+def _candidates(routes: dict[int, HeldRoute]) -> dict[int, HeldRoute]:
+    """Robots that may take the task: all available ones ("multi": online multi-task
+    allocation), or only those holding no task ("single": single-task allocation)."""
+    if settings.ALLOCATION_POLICY == "single":
+        return {pk: held for pk, held in routes.items() if held.is_empty}
+    return routes
+
+
+def _why_not(routes: dict[int, HeldRoute], candidates: dict[int, HeldRoute]) -> str:
+    if not routes:
+        return NO_ROBOT
+    return NO_ROUTE if candidates else NO_EMPTY_ROBOT
 
 
 @dataclass(frozen=True)

@@ -52,6 +52,7 @@ def task_event_wire(task: Task, entry: TaskTransition) -> dict:
     return {
         "code": task.code,
         "status": task.status,
+        "status_label": task.get_status_display(),
         "old": entry.old,
         "cause": entry.cause,
         "robot": entry.robot.code if entry.robot else None,

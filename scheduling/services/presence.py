@@ -1,4 +1,5 @@
-"""A robot that goes offline gives back the tasks it has not picked up (protocol v1)."""
+"""A robot that goes offline gives back the tasks it has not picked up (protocol v1); so does
+a robot an operator sends back to its dock (robots.operator)."""
 
 from datetime import datetime
 
@@ -17,25 +18,46 @@ def robot_offline(*, robot: Robot, at: datetime) -> int:
     board stay with it (silence never drops a load); operators are alerted about those. The
     robot is posted a corrected plan, which it receives when it comes back.
     """
+    given_back, loaded = _give_back_unloaded(
+        robot, at, reason=f"{robot.code} went offline", cause=Cause.PRESENCE
+    )
+    if loaded:
+        _alert_loaded(robot, loaded)
+    return len(given_back)
+
+
+def robot_tasks_give_back(*, robot: Robot, at: datetime, by=None, note: str = "") -> int:
+    """Give the robot's tasks with nothing on board back to the scheduler, for an operator
+    (`by`); returns how many. They become due and are allocated again (to other robots while
+    this one is held). Tasks with items on board stay with it; it is posted a corrected plan.
+
+    Call with the robot's row locked.
+    """
+    note = note or f"given back: {robot.code} sent to its dock"
+    given_back, _loaded = _give_back_unloaded(
+        robot, at, reason=note, cause=Cause.USER, user=by, note=note
+    )
+    return len(given_back)
+
+
+def _give_back_unloaded(robot: Robot, at: datetime, *, reason: str, **why):
     tasks = list(
         Task.objects.filter(robot=robot, status__in=ROUTE_STATUSES).prefetch_related("stops")
     )
     loaded = [task for task in tasks if any(stop.done_at for stop in task.stops.all())]
     given_back = [task for task in tasks if task not in loaded]
     for task in given_back:
-        _give_back(task, robot, at)
-    if loaded:
-        _alert_loaded(robot, loaded)
+        _give_back(task, robot, at, **why)
     if given_back:
-        plan_withdraw_pending(robot=robot, reason=f"{robot.code} went offline", now=at)
+        plan_withdraw_pending(robot=robot, reason=reason, now=at)
         robot_replan(robot=robot, now=at)
-    return len(given_back)
+    return given_back, loaded
 
 
-def _give_back(task: Task, robot: Robot, at: datetime) -> None:
+def _give_back(task: Task, robot: Robot, at: datetime, **why) -> None:
     task.robot, task.ack_due_at, task.eta = None, None, None
     fields = ["robot", "ack_due_at", "eta"]
-    task_move(task, TaskStatus.DUE, at=at, fields=fields, cause=Cause.PRESENCE, robot=robot)
+    task_move(task, TaskStatus.DUE, at=at, fields=fields, robot=robot, **why)
     allocation_enqueue(task.pk)
 
 

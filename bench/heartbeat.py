@@ -1,0 +1,294 @@
+"""Heartbeat throughput: N robots at 1 Hz against the production stack, and a bare endpoint.
+
+    python bench/heartbeat.py            # 100, 500, 1000 robots, PostgreSQL (a few minutes)
+    python bench/heartbeat.py --quick    # 20 and 50 robots, short: what CI runs
+    python bench/heartbeat.py --database sqlite:///    # the default database instead
+
+The server runs as the README recommends for production (bench/stack.py): gunicorn sync workers
+(2 x CPUs + 1 with PostgreSQL, as the README advises; 3 with SQLite, as the Procfile), daphne,
+a Celery worker and Celery beat (the sweeps run every second, as in production), on a fresh
+database. Each simulated robot heartbeats once a second (phases spread over the second) with a
+realistic body (state at its dock, no events), waiting for each answer before the next as a
+robot does; when the server falls behind the robots fall behind with it, so "achieved" is what
+the server sustains. In the same run the same load goes to `POST /bench/bare`, a DRF view that
+returns `{}` (no authentication, no database): the ratio is what the heartbeat's own work costs.
+
+The load generator is one asyncio process with raw HTTP/1.1 (a connection per request: gunicorn's
+sync workers close each one). It shares the 2-core machine with the server; its own CPU use is
+printed so it can be seen not to be the bottleneck.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import datetime
+import json
+import math
+import os
+import platform
+import shlex
+import sys
+import time
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+
+if __package__ in (None, ""):  # run as a script: make the repository root importable
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from bench.stack import Stack, temporary_database
+
+ROOT = Path(__file__).resolve().parent.parent
+SITE_FILE = ROOT / "sites" / "eulji.yaml"
+TIMEOUT = 10.0  # seconds before a heartbeat counts as an error
+
+
+@dataclass(frozen=True)
+class Settings:
+    counts: tuple[int, ...]
+    warmup: float
+    measure: float
+
+
+FULL = Settings(counts=(100, 200, 500, 1000), warmup=3.0, measure=15.0)
+QUICK = Settings(counts=(20, 50), warmup=1.0, measure=2.0)
+
+
+@dataclass
+class Load:
+    robots: int
+    endpoint: str
+    seconds: float
+    latencies: list[float] = field(default_factory=list)  # of answers in the window, seconds
+    errors: dict[str, int] = field(default_factory=dict)
+    loader_cpu: float = 0.0  # share of one core
+    flips: int = 0  # presence changes recorded meanwhile (PresenceChange rows)
+
+    @property
+    def achieved(self) -> float:
+        return len(self.latencies) / self.seconds
+
+    def error(self, kind: str) -> None:
+        self.errors[kind] = self.errors.get(kind, 0) + 1
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="small counts, short: for CI")
+    parser.add_argument(
+        "--database",
+        default=os.environ.get("DATABASE_URL", "postgres://postgres@127.0.0.1:5432/postgres"),
+        help="a PostgreSQL server to create the benchmark's database on, or sqlite:///",
+    )
+    parser.add_argument("--web-workers", type=int, help="gunicorn sync workers")
+    args = parser.parse_args(argv)
+    settings = QUICK if args.quick else FULL
+    postgres = not args.database.startswith("sqlite")
+    workers = args.web_workers or ((2 * os.cpu_count() + 1) if postgres else 3)
+    os.environ.setdefault("SECRET_KEY", "bench-only")  # for the servers and manage.py too
+    with temporary_database(args.database) as url:
+        tokens = _robots(url, max(settings.counts))
+        stack = Stack(database_url=url, web_workers=workers, beat=True, conn_max_age=60)
+        with stack:
+            _print_header(stack, postgres, settings, argv)
+            _load(stack, tokens[: settings.counts[0]], "heartbeat", settings)  # warm the workers
+            loads = []
+            for count in settings.counts:
+                for endpoint in ("heartbeat", "bare"):
+                    loads.append(_load(stack, tokens[:count], endpoint, settings))
+    _print_table(loads)
+    return 0 if all(load.latencies for load in loads) else 1
+
+
+def _robots(database_url: str, count: int) -> list[tuple[str, str]]:
+    """The Eulji site and `count` robots at its docks; (code, token) of each."""
+    os.environ["DATABASE_URL"] = database_url
+    os.environ.setdefault("DJANGO_SETTINGS_MODULE", "hospital_delivery.settings")
+    import django
+
+    django.setup()
+    from hospital_delivery.tokens import token_new
+    from robots.models import Robot
+    from robots.sites import site_file_read, site_load
+
+    site = site_load(data={**site_file_read(SITE_FILE), "robots": []})
+    docks = list(site.waypoints.filter(kind="dock").order_by("code"))
+    tokens, robots = [], []
+    for n in range(count):
+        token, hashed = token_new()
+        code = f"H{n + 1:04d}"
+        tokens.append((code, token))
+        robots.append(Robot(site=site, code=code, dock=docks[n % len(docks)], token_hash=hashed))
+    Robot.objects.bulk_create(robots)
+    return tokens
+
+
+def _print_header(stack: Stack, postgres: bool, settings: Settings, argv) -> None:
+    now = datetime.datetime.now().astimezone().isoformat(timespec="seconds")
+    command = shlex.join(["python", "bench/heartbeat.py", *(argv if argv else sys.argv[1:])])
+    print(f"heartbeat benchmark  {now}")
+    print(f"command: {command}")
+    print(f"Python {platform.python_version()}, {os.cpu_count()} CPUs, {platform.platform()}")
+    print(f"server: {stack.description}; {'PostgreSQL' if postgres else 'SQLite (WAL)'}")
+    print(
+        f"load: robots at 1 Hz each, phases spread over the second, {settings.warmup:g} s "
+        f"warm-up then {settings.measure:g} s measured per row; one asyncio process with raw\n"
+        f"HTTP/1.1, on the same {os.cpu_count()}-core machine as the server.\n"
+    )
+
+
+# --- The load -----------------------------------------------------------------------------------
+
+
+def _load(stack: Stack, robots, endpoint: str, settings: Settings) -> Load:
+    from robots.models import PresenceChange
+
+    load = Load(len(robots), endpoint, settings.measure)
+    flips = PresenceChange.objects.count()
+    cpu, wall = time.process_time(), time.perf_counter()
+    asyncio.run(_drive(stack.http_port, robots, endpoint, settings, load))
+    load.loader_cpu = (time.process_time() - cpu) / (time.perf_counter() - wall)
+    load.flips = PresenceChange.objects.count() - flips
+    return load
+
+
+async def _drive(port: int, robots, endpoint: str, settings: Settings, load: Load) -> None:
+    loop = asyncio.get_running_loop()
+    begin = loop.time() + 0.5
+    window = (begin + settings.warmup, begin + settings.warmup + settings.measure)
+    count = len(robots)
+    await asyncio.gather(
+        *(
+            _robot(port, code, token, endpoint, begin + n / count, window, load)
+            for n, (code, token) in enumerate(robots)
+        )
+    )
+
+
+async def _robot(port, code, token, endpoint, first, window, load: Load) -> None:
+    """One robot: a heartbeat a second from `first`, each after the previous one's answer."""
+    loop = asyncio.get_running_loop()
+    boot, seq, due = uuid.uuid4().hex, 0, first
+    path = f"/api/v1/robots/{code}/heartbeat" if endpoint == "heartbeat" else "/bench/bare"
+    while due < window[1]:
+        await asyncio.sleep(max(due - loop.time(), 0))
+        seq += 1
+        sent = loop.time()
+        request = _request(port, path, token, _body(boot, seq, code))
+        try:
+            status = await asyncio.wait_for(_exchange(port, request), TIMEOUT)
+        except (TimeoutError, OSError, asyncio.IncompleteReadError, ValueError) as exc:
+            status = type(exc).__name__
+        answered = loop.time()
+        if window[0] <= sent and answered <= window[1]:
+            if status == 200:
+                load.latencies.append(answered - sent)
+            else:
+                load.error(str(status))
+        due = max(due + 1.0, answered)  # a robot heartbeats again only once answered
+
+
+def _body(boot: str, seq: int, code: str) -> bytes:
+    n = int(code[1:])
+    return json.dumps(
+        {
+            "boot_id": boot,
+            "seq": seq,
+            "sent_at": datetime.datetime.now(datetime.UTC).isoformat(),
+            "state": {
+                "status": "idle",
+                "floor": "15F",
+                "waypoint": f"15F-DOCK-{(n - 1) % 4 + 1}",
+                "x": 70.0,
+                "y": 26.0,
+                "heading": 0.0,
+                "battery": 0.9,
+                "load": 0,
+                "plan_version": 0,
+                "errors": [],
+            },
+            "events": [],
+            "acks": [],
+            "requests": [],
+        }
+    ).encode()
+
+
+def _request(port: int, path: str, token: str, body: bytes) -> bytes:
+    head = (
+        f"POST {path} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n"
+        f"Authorization: Bearer {token}\r\nContent-Type: application/json\r\n"
+        f"Content-Length: {len(body)}\r\n\r\n"
+    )
+    return head.encode() + body
+
+
+async def _exchange(port: int, request: bytes) -> int:
+    reader, writer = await asyncio.open_connection("127.0.0.1", port)
+    try:
+        writer.write(request)
+        head = await reader.readuntil(b"\r\n\r\n")
+        status = int(head.split(b" ", 2)[1])
+        length = _content_length(head)
+        if length is None:
+            await reader.read()
+        else:
+            await reader.readexactly(length)
+        return status
+    finally:
+        writer.close()
+
+
+def _content_length(head: bytes) -> int | None:
+    for line in head.split(b"\r\n"):
+        name, _, value = line.partition(b":")
+        if name.strip().lower() == b"content-length":
+            return int(value)
+    return None
+
+
+# --- Reporting ----------------------------------------------------------------------------------
+
+
+def _print_table(loads: list[Load]) -> None:
+    print(
+        f"\n{'robots':>6}  {'endpoint':<10}{'offered/s':>10}{'achieved/s':>11}{'p50 ms':>8}"
+        f"{'p99 ms':>8}{'errors':>8}{'loader CPU':>11}{'flips':>7}"
+    )
+    for load in loads:
+        latencies = sorted(load.latencies)
+        print(
+            f"{load.robots:>6}  {load.endpoint if load.endpoint == 'heartbeat' else 'bare {}':<10}"
+            f"{load.robots:>10}{load.achieved:>11.0f}{_ms(latencies, 50):>8}{_ms(latencies, 99):>8}"
+            f"{sum(load.errors.values()):>8}{load.loader_cpu:>11.0%}{load.flips:>7}"
+            + (f"  {load.errors}" if load.errors else "")
+        )
+    print(
+        "\nflips: presence changes recorded during the row (online <-> unreachable): a robot\n"
+        "whose heartbeats come more than 3 intervals apart is flipped by the sweep and back by\n"
+        "its next heartbeat."
+    )
+    print("\nheartbeat / bare endpoint under the same load:")
+    for heartbeat, bare in zip(loads[::2], loads[1::2], strict=True):
+        ratio = heartbeat.achieved / bare.achieved if bare.achieved else float("nan")
+        slower = _percentile(heartbeat.latencies, 50) / _percentile(bare.latencies, 50)
+        print(
+            f"{heartbeat.robots:>6} robots: {ratio:.2f} of the bare endpoint's throughput, "
+            f"median latency x{slower:.1f}"
+        )
+
+
+def _percentile(values: list[float], percent: float) -> float:
+    ordered = sorted(values)
+    if not ordered:
+        return float("nan")
+    return ordered[max(math.ceil(percent / 100 * len(ordered)) - 1, 0)]
+
+
+def _ms(latencies: list[float], percent: float) -> str:
+    return f"{_percentile(latencies, percent) * 1000:.1f}"
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,347 @@
+"""Screenshots of the pages for the README: docs/screenshots/{deliveries,floor-map,robot}.png
+
+    .venv/bin/python docs/screenshots.py
+
+Runs on a throwaway SQLite database: migrates it, loads sites/eulji.yaml, starts gunicorn and
+daphne as the Procfile does, puts the four robots around the hospital by heartbeats over HTTP
+(R2 rides the elevator, R3 waits for it, R4 holds the 6th floor's narrow corridor), orders
+deliveries through the scheduling services, and photographs the pages with Debian's Chromium
+(CHROMIUM_PATH, default /usr/bin/chromium). Needs Redis (REDIS_URL, default the local one) for
+the pages' live connection. Leaves nothing behind but the PNG files.
+"""
+
+import itertools
+import os
+import shutil
+import sys
+import tempfile
+import uuid
+from datetime import timedelta
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+OUT = REPO / "docs" / "screenshots"
+PASSWORD = "screenshots-only"
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
+
+
+def main() -> None:
+    workdir = Path(tempfile.mkdtemp(prefix="hd-screenshots-"))
+    os.environ.update(
+        {
+            "DJANGO_SETTINGS_MODULE": "hospital_delivery.settings",
+            "DATABASE_URL": f"sqlite:///{workdir / 'db.sqlite3'}",
+            "SECRET_KEY": "screenshots-only",
+            "CHANNELS_PREFIX": f"hd-screenshots-{uuid.uuid4().hex[:8]}",
+            "CELERY_QUEUE": f"hd-screenshots-{uuid.uuid4().hex[:8]}",  # no worker: nothing runs
+            "DEBUG": "false",
+        }
+    )
+    sys.path.insert(0, str(REPO))
+    import django
+
+    django.setup()
+    from django.core.management import call_command
+
+    from tests import servers
+
+    try:
+        call_command("migrate", verbosity=0)
+        call_command("load_site", str(REPO / "sites" / "eulji.yaml"))
+        with servers.daphne() as ws, servers.gunicorn(env={"WEBSOCKET_URL": ws.url}) as http:
+            scene(http)
+            photograph(http)
+    finally:
+        from hospital_delivery.celery import app
+
+        servers.celery_queue_delete(app, os.environ["CELERY_QUEUE"])
+        shutil.rmtree(workdir, ignore_errors=True)
+
+
+class Robot:
+    """A robot speaking protocol v1 over HTTP; it acks what it received at its next heartbeat."""
+
+    def __init__(self, base_url: str, code: str):
+        import requests
+
+        from robots.models import Robot as RobotRow
+        from robots.services import robot_token_issue
+
+        self.code = code
+        self.url = f"{base_url}/api/v1/robots/{code}/heartbeat"
+        token = robot_token_issue(robot=RobotRow.objects.get(code=code))
+        self.session = requests.Session()
+        self.session.headers["Authorization"] = f"Bearer {token}"
+        self.seq, self.acks, self.state = 0, [], {}
+        self.events = itertools.count(1)
+
+    def beat(self, events=(), requests=(), **state) -> dict:
+        self.state = {"plan_version": 0, "errors": [], "load": 0, **self.state, **state}
+        self.seq += 1
+        body = {
+            "boot_id": f"{self.code}-boot",
+            "seq": self.seq,
+            "sent_at": "2026-11-22T09:14:03.120Z",
+            "state": self.state,
+            "events": [{"id": f"{self.code}-e{next(self.events)}", **e} for e in events],
+            "acks": self.acks,
+            "requests": list(requests),
+        }
+        reply = self.session.post(self.url, json=body, timeout=30)
+        reply.raise_for_status()
+        messages = reply.json()["messages"]
+        self.acks = [message["id"] for message in messages]
+        plans = [message for message in messages if message["type"] == "plan"]
+        if plans:
+            self.state["plan_version"] = plans[-1]["plan_version"]
+        return reply.json()
+
+
+def order(site, user, pickups, dropoffs, contents, **fields):
+    from robots.models import Waypoint
+    from scheduling.services import task_request
+
+    stations = {wp.code: wp for wp in Waypoint.objects.filter(site=site)}
+    return task_request(
+        site=site,
+        requester=user,
+        pickups=[stations[code] for code in pickups],
+        dropoffs=[stations[code] for code in dropoffs],
+        contents=contents,
+        **fields,
+    )
+
+
+def allocate(task) -> str:
+    from scheduling.models import Task
+    from scheduling.services import task_allocate
+
+    task_allocate(task_id=task.pk)
+    robot = Task.objects.get(pk=task.pk).robot
+    return robot.code if robot else "nobody"
+
+
+def scene(http: str) -> None:
+    """Four robots at work on a weekday morning at Eulji University Hospital."""
+    from django.contrib.auth.models import Group, User
+    from django.utils import timezone
+
+    from robots.models import Robot as RobotRow
+    from robots.models import Site
+    from robots.operator import robot_action
+
+    site = Site.objects.get(code="eulji")
+    nurse = User.objects.create_user("minji", password=PASSWORD, first_name="Minji")
+    nurse.groups.add(Group.objects.get(name="nurse"))
+    operator = User.objects.create_user("jisoo", password=PASSWORD, first_name="Jisoo")
+    operator.last_name = "Park"
+    operator.save()
+    operator.groups.add(Group.objects.get(name="operator"))
+    r1, r2, r3, r4 = (Robot(http, code) for code in ("R1", "R2", "R3", "R4"))
+
+    # R3 brings sterile kits to the operating theatre, then fails at the laboratory's door.
+    r3.beat(status="idle", floor="2F", waypoint="2F-SUPPLY", x=74, y=20, battery=0.47)
+    kits = order(
+        site,
+        nurse,
+        ["2F-SUPPLY"],
+        ["3F-OR"],
+        "Sterile kits",
+        sender="Central supply",
+        receiver="Theatre nurse Yoon",
+    )
+    allocate(kits)
+    r3.beat(events=[{"type": "loaded", "task": kits.code, "stop": 0}], load=1)
+    r3.beat(
+        events=[
+            {"type": "unloaded", "task": kits.code, "stop": 1},
+            {"type": "task_completed", "task": kits.code},
+        ],
+        load=0,
+    )
+    swabs = order(
+        site,
+        nurse,
+        ["2F-SUPPLY"],
+        ["2F-LAB-DROP"],
+        "Swab kits",
+        sender="Central supply",
+        receiver="Laboratory",
+    )
+    allocate(swabs)
+    r3.beat()
+    r3.beat(
+        events=[
+            {
+                "type": "task_failed",
+                "task": swabs.code,
+                "reason": "automatic door DOOR-2F-LAB did not open",
+            }
+        ]
+    )
+
+    # R1 picks up blood samples at ward 6A: the paper's trial run, 6F to the 2F laboratory.
+    r1.beat(status="idle", floor="6F", waypoint="6F-WARD-A", x=8, y=20, battery=0.81)
+    blood = order(
+        site,
+        nurse,
+        ["6F-WARD-A"],
+        ["2F-LAB-DROP"],
+        "Blood samples",
+        sender="Nurse Minji Kim, 6A",
+        receiver="Laboratory sample reception",
+        priority="urgent",
+    )
+    allocate(blood)
+    r1.beat(events=[{"type": "loaded", "task": blood.code, "stop": 0}], load=1)
+    robot_action(robot=RobotRow.objects.get(code="R1"), action="pause", by=operator)
+    r1.beat(status="moving", waypoint="6F-HALL-W", x=16, y=12, heading=0.0)
+    r1.beat(status="paused")  # a bed was being wheeled through the hall
+    robot_action(robot=RobotRow.objects.get(code="R1"), action="resume", by=operator)
+    r1.beat()
+    r1.beat(status="moving", x=24)
+
+    # R4 brings medication to ward 6B, inside the narrow corridor it may only pass alone.
+    r4.beat(status="idle", floor="1F", waypoint="1F-PHARM", x=8, y=20, battery=0.92)
+    medication = order(
+        site,
+        nurse,
+        ["1F-PHARM"],
+        ["6F-WARD-B"],
+        "Medication (antibiotics)",
+        sender="Pharmacy",
+        receiver="Nurse Lee, 6B",
+    )
+    allocate(medication)
+    r4.beat(events=[{"type": "loaded", "task": medication.code, "stop": 0}], load=1)
+    r4.beat(
+        status="waiting_resource",
+        floor="6F",
+        waypoint="6F-CORR-W",
+        x=52,
+        y=12,
+        requests=[{"id": "r4-q1", "type": "acquire", "resource": "CORR-6F"}],
+    )
+    r4.beat(
+        status="in_resource",
+        waypoint="6F-CORR-MID",
+        x=63.5,
+        y=12,
+        events=[{"type": "resource_entered", "resource": "CORR-6F"}],
+    )
+
+    # R2 rides the elevator down from the 9th floor; R3 waits for it on the 6th.
+    r2.beat(
+        status="waiting_resource",
+        floor="9F",
+        waypoint="9F-ELEV-A-WAIT",
+        x=40,
+        y=4,
+        battery=0.64,
+        requests=[{"id": "r2-q1", "type": "acquire", "resource": "ELEV-A", "to_floor": "2F"}],
+    )
+    r2.beat(
+        status="in_resource",
+        floor="7F",
+        waypoint="7F-ELEV-A-WAIT",
+        x=40,
+        y=4,
+        events=[{"type": "resource_entered", "resource": "ELEV-A"}],
+    )
+    results = order(
+        site,
+        nurse,
+        ["2F-LAB-PICKUP"],
+        ["9F-WARD-A", "10F-WARD-B"],
+        "Test results",
+        sender="Laboratory",
+        receiver="Wards 9A and 10B",
+    )
+    allocate(results)
+    r2.beat()
+    r3.beat(
+        status="waiting_resource",
+        floor="6F",
+        waypoint="6F-ELEV-A-WAIT",
+        x=40,
+        y=4,
+        requests=[{"id": "r3-q1", "type": "acquire", "resource": "ELEV-A", "to_floor": "15F"}],
+    )
+
+    # Later today, every day, and one the allocator has yet to place.
+    later = timezone.now() + timedelta(hours=2)
+    order(
+        site,
+        nurse,
+        ["2F-SUPPLY"],
+        ["14F-WARD-A"],
+        "Clean linen",
+        sender="Central supply",
+        receiver="Ward 14A",
+        requested_time=later,
+    )
+    order(
+        site,
+        nurse,
+        ["13F-WARD-A"],
+        ["2F-LAB-DROP"],
+        "Morning round samples",
+        sender="Ward 13A",
+        receiver="Laboratory",
+        repeat={"times": ["06:30", "18:30"]},
+    )
+    order(
+        site,
+        operator,
+        ["3F-ICU"],
+        ["3F-OR"],
+        "Infusion pump",
+        sender="ICU",
+        receiver="Operating theatre",
+        priority="urgent",
+    )
+    for _ in range(2):  # every robot acks what it received
+        for robot in (r1, r2, r3, r4):
+            robot.beat()
+
+
+def photograph(http: str) -> None:
+    from playwright.sync_api import expect, sync_playwright
+
+    OUT.mkdir(parents=True, exist_ok=True)
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(
+            executable_path=os.environ.get("CHROMIUM_PATH", "/usr/bin/chromium"),
+            headless=True,
+            args=CHROMIUM_ARGS,
+        )
+        context = browser.new_context(
+            base_url=http, viewport={"width": 1440, "height": 900}, locale="en-GB"
+        )
+        page = context.new_page()
+        page.goto("/accounts/login/")
+        page.get_by_label("Username").fill("jisoo")
+        page.get_by_label("Password").fill(PASSWORD)
+        page.get_by_role("button", name="Log in").click()
+        for path, name in [
+            ("/", "deliveries.png"),
+            ("/fleet/?floor=6F", "floor-map.png"),
+            ("/robots/R1/", "robot.png"),
+        ]:
+            page.goto(path)
+            expect(page.locator("#live-status")).to_have_text("Live")
+            page.mouse.move(0, 0)
+            page.screenshot(path=OUT / name, full_page=True)
+            print(f"wrote {OUT / name}")
+        browser.close()
+
+
+if __name__ == "__main__":
+    main()

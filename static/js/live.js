@@ -1,0 +1,319 @@
+/*
+ * Live pages: one websocket per page to the site's events (daphne, /ws/sites/<site>).
+ *
+ * On every (re)connect the page re-reads the parts it shows from /live/<site>/state.json, so
+ * nothing is stale after a lost connection or a server restart; then it applies events as they
+ * come. A closed socket is reopened with backoff. Page scripts (deliveries.js, fleet.js,
+ * robot.js) say which parts they show and what to do with events, through window.Live.
+ *
+ * Hand-written, no framework, no build step: served as is by the app (whitenoise).
+ */
+(function () {
+  "use strict";
+
+  const body = document.body;
+  const site = body.dataset.site;
+  if (!site) {
+    return;
+  }
+  const meta = (name) => {
+    const element = document.querySelector(`meta[name="${name}"]`);
+    return element ? element.content : "";
+  };
+  const statusElement = document.getElementById("live-status");
+  const timeZone = meta("hd-time-zone") || undefined;
+  const handlers = {};
+  const parts = new Set(["alerts"]);
+  const query = {};
+  const pending = new Set();
+  let socket = null;
+  let attempt = 0;
+  let retryTimer = null;
+  let rereadTimer = null;
+  let closedForGood = false;
+
+  // --- Connection ---------------------------------------------------------------------------
+
+  function socketUrl() {
+    const configured = meta("hd-websocket-url").replace(/\/+$/, "");
+    const scheme = location.protocol === "https:" ? "wss" : "ws";
+    const port = meta("hd-websocket-port") || "8001";
+    const base = configured || `${scheme}://${location.hostname}:${port}`;
+    return `${base}/ws/sites/${encodeURIComponent(site)}`;
+  }
+
+  function setStatus(state, text) {
+    body.dataset.live = state;
+    if (statusElement) {
+      statusElement.dataset.state = state;
+      statusElement.textContent = text;
+    }
+  }
+
+  function connect() {
+    if (closedForGood || (socket && socket.readyState <= WebSocket.OPEN)) {
+      return;
+    }
+    clearTimeout(retryTimer);
+    setStatus("connecting", attempt ? "Reconnecting…" : "Connecting…");
+    try {
+      socket = new WebSocket(socketUrl());
+    } catch (error) {
+      retryLater();
+      return;
+    }
+    socket.addEventListener("open", () => {
+      attempt = 0;
+      // "Live" only once the page shows the state as of now: events from here on apply to it.
+      reread(new Set(parts)).then((ok) => {
+        if (ok && socket && socket.readyState === WebSocket.OPEN) {
+          setStatus("open", "Live");
+        }
+      });
+    });
+    socket.addEventListener("message", (message) => {
+      let event;
+      try {
+        event = JSON.parse(message.data);
+      } catch (error) {
+        return;
+      }
+      dispatch(event.kind, event.data);
+    });
+    socket.addEventListener("close", (closed) => {
+      socket = null;
+      if (closed.code === 4401) {
+        toLogin();
+      } else if (closed.code === 4403 || closed.code === 4404) {
+        closedForGood = true;
+        setStatus("closed", "No live updates");
+      } else {
+        retryLater();
+      }
+    });
+  }
+
+  function retryLater() {
+    attempt += 1;
+    // 1 s, 2 s, 4 s, 8 s, then every 15 s; jittered so restarted servers are not stampeded.
+    const delay = Math.min(15000, 500 * 2 ** Math.min(attempt, 5)) * (0.75 + Math.random() / 2);
+    setStatus("reconnecting", "Reconnecting…");
+    clearTimeout(retryTimer);
+    retryTimer = setTimeout(connect, delay);
+  }
+
+  function reconnectNow() {
+    if (!socket && !closedForGood) {
+      attempt = 0;
+      connect();
+    }
+  }
+
+  function toLogin() {
+    closedForGood = true;
+    setStatus("closed", "Logged out");
+    const next = encodeURIComponent(location.pathname + location.search);
+    location.assign(`${body.dataset.loginUrl}?next=${next}`);
+  }
+
+  // --- Re-reading the state -----------------------------------------------------------------
+
+  function reread(wanted) {
+    const url = new URL(body.dataset.stateUrl, location.href);
+    url.searchParams.set("parts", [...wanted].join(","));
+    Object.entries(query).forEach(([key, value]) => url.searchParams.set(key, value));
+    return fetch(url, { credentials: "same-origin", headers: { Accept: "application/json" } })
+      .then((response) => {
+        if (response.redirected && new URL(response.url).pathname === body.dataset.loginUrl) {
+          toLogin();
+          return false;
+        }
+        if (!response.ok) {
+          throw new Error(`state: HTTP ${response.status}`);
+        }
+        return response.json().then((state) => {
+          applyState(state);
+          return true;
+        });
+      })
+      .catch(() => false); // the next event or reconnect reads again
+  }
+
+  function rereadSoon(part, delay = 300) {
+    pending.add(part);
+    if (!rereadTimer) {
+      rereadTimer = setTimeout(() => {
+        rereadTimer = null;
+        const wanted = new Set(pending);
+        pending.clear();
+        reread(wanted);
+      }, delay);
+    }
+  }
+
+  function applyState(state) {
+    Object.entries(state.parts || {}).forEach(([name, html]) => replacePart(name, html));
+    dispatch("state", state);
+  }
+
+  function replacePart(name, html) {
+    document.querySelectorAll(`[data-part="${name}"]`).forEach((element) => {
+      const focus = focusKey(element);
+      element.innerHTML = html;
+      restoreFocus(element, focus);
+    });
+  }
+
+  // A part replaced under the keyboard focus gives it back to the same control of the same row.
+  const ROW_KEYS = ["task", "robot", "alert", "resource"];
+
+  function focusKey(container) {
+    const active = document.activeElement;
+    if (!active || !container.contains(active)) {
+      return null;
+    }
+    const row = active.closest(ROW_KEYS.map((key) => `[data-${key}]`).join(","));
+    if (!row) {
+      return null;
+    }
+    const key = ROW_KEYS.find((name) => row.dataset[name] !== undefined);
+    const focusables = [...row.querySelectorAll("a, button, input, select, textarea")];
+    return { key, value: row.dataset[key], index: focusables.indexOf(active) };
+  }
+
+  function restoreFocus(container, focus) {
+    if (!focus) {
+      return;
+    }
+    const row = container.querySelector(`[data-${focus.key}="${CSS.escape(focus.value)}"]`);
+    const focusables = row ? [...row.querySelectorAll("a, button, input, select, textarea")] : [];
+    (focusables[focus.index] || focusables[0] || container.closest("[tabindex]") || body).focus();
+  }
+
+  // --- Events -------------------------------------------------------------------------------
+
+  function on(kind, handler) {
+    (handlers[kind] = handlers[kind] || []).push(handler);
+  }
+
+  function dispatch(kind, data) {
+    (handlers[kind] || []).forEach((handler) => handler(data));
+  }
+
+  on("alert", () => rereadSoon("alerts", 0));
+  on("alert_acknowledged", (data) => {
+    document.querySelectorAll(`[data-alert="${CSS.escape(String(data.id))}"]`).forEach((el) => {
+      if (!el.contains(document.activeElement)) {
+        el.remove();
+      } else {
+        rereadSoon("alerts", 0);
+      }
+    });
+  });
+
+  // --- Showing robots (fleet rows, the robot page) ------------------------------------------
+
+  const clock = new Intl.DateTimeFormat("en-GB", {
+    timeZone,
+    hour: "2-digit",
+    minute: "2-digit",
+    second: "2-digit",
+    hour12: false,
+  });
+
+  function formatTime(iso) {
+    return iso ? clock.format(new Date(iso)) : "";
+  }
+
+  function element(tag, className, text) {
+    const made = document.createElement(tag);
+    if (className) {
+      made.className = className;
+    }
+    if (text !== undefined) {
+      made.textContent = text;
+    }
+    return made;
+  }
+
+  const muted = (text) => element("span", "muted", text);
+
+  const ROBOT_FIELDS = {
+    presence: (r) => [element("span", `presence presence-${r.presence}`, r.presence_label)],
+    status: (r) => {
+      const nodes = [document.createTextNode(r.status_label)];
+      if (r.paused_by_operator) {
+        nodes.push(document.createTextNode(" "), element("span", "badge badge-hold", "held by operator"));
+      }
+      if (r.errors && r.errors.length) {
+        nodes.push(document.createTextNode(" "), element("span", "badge badge-error", r.errors.join(", ")));
+      }
+      return nodes;
+    },
+    place: (r) => {
+      if (!r.floor) {
+        return [muted("—")];
+      }
+      return [document.createTextNode(r.place ? `${r.floor} · ${r.place}` : r.floor)];
+    },
+    position: (r) =>
+      r.x === null || r.x === undefined
+        ? [muted("—")]
+        : [document.createTextNode(`x ${r.x.toFixed(1)} m, y ${r.y.toFixed(1)} m`)],
+    battery: (r) => {
+      if (r.battery === null || r.battery === undefined) {
+        return [muted("—")];
+      }
+      const battery = element("span", r.battery < 20 ? "battery battery-low" : "battery");
+      const bar = element("span", "battery-bar");
+      bar.style.setProperty("--level", `${r.battery}%`);
+      battery.append(bar, `${r.battery} %`);
+      return [battery];
+    },
+    load: (r) => [document.createTextNode(`${r.load} / ${r.capacity}`)],
+    last_seen: (r) => {
+      if (!r.last_seen_at) {
+        return [muted("never")];
+      }
+      const time = element("time", "", formatTime(r.last_seen_at));
+      time.dateTime = r.last_seen_at;
+      return [time];
+    },
+  };
+
+  /** Show robot `r` (a "robot" event's data) in every [data-field] inside `container`. */
+  function showRobot(container, r) {
+    container.querySelectorAll("[data-field]").forEach((cell) => {
+      const render = ROBOT_FIELDS[cell.dataset.field];
+      if (render) {
+        cell.replaceChildren(...render(r));
+      }
+    });
+    if (container.matches("tr")) {
+      container.className = `presence-${r.presence}`;
+    }
+  }
+
+  // --- Start ----------------------------------------------------------------------------------
+
+  window.Live = {
+    /** The page shows these parts: they are re-read on every (re)connect. */
+    want: (...names) => names.forEach((name) => parts.add(name)),
+    /** An extra query parameter of the re-read (the robot page's robot). */
+    query: (key, value) => {
+      query[key] = value;
+    },
+    on,
+    rereadSoon,
+    showRobot,
+    formatTime,
+  };
+
+  document.addEventListener("DOMContentLoaded", connect);
+  window.addEventListener("online", reconnectNow);
+  document.addEventListener("visibilitychange", () => {
+    if (document.visibilityState === "visible") {
+      reconnectNow();
+    }
+  });
+})();

@@ -1,0 +1,28 @@
+"""bench/heartbeat.py --quick runs to completion in CI against the production stack."""
+
+import re
+
+import pytest
+
+from tests.bench.quick import run_quick
+
+pytestmark = pytest.mark.slow
+
+
+def test_it_loads_the_heartbeat_and_the_bare_endpoint():
+    output = run_quick("bench/heartbeat.py")
+
+    assert "heartbeat benchmark" in output
+    rows = re.findall(
+        r"^\s+(\d+)\s+(heartbeat|bare \{\})\s+(\d+)\s+(\d+)\s+([\d.]+)\s+([\d.]+)\s+(\d+)",
+        output,
+        re.MULTILINE,
+    )
+    assert [(robots, endpoint) for robots, endpoint, *_ in rows] == [
+        ("20", "heartbeat"),
+        ("20", "bare {}"),
+        ("50", "heartbeat"),
+        ("50", "bare {}"),
+    ], output
+    assert all(int(achieved) > 0 for *_, achieved, _p50, _p99, _errors in rows)
+    assert re.search(r"20 robots: [\d.]+ of the bare endpoint's throughput", output)

@@ -1,0 +1,100 @@
+"""Browser tests: Debian's Chromium, driven by Playwright, against the serving split of the
+README: gunicorn (pages, API, heartbeats) and daphne (websockets) as subprocesses on the test
+database. Never `playwright install`: CHROMIUM_PATH (default /usr/bin/chromium; ./scripts/test.sh
+installs Debian's package when missing)."""
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import pytest
+from django.conf import settings
+from django.db import connections
+from django.test import Client
+from playwright.sync_api import expect, sync_playwright
+
+from tests import servers
+
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
+DESKTOP = {"width": 1280, "height": 900}
+TABLET = {"width": 768, "height": 1024}
+
+
+@dataclass
+class Servers:
+    http: str
+    ws: servers.Daphne
+
+
+@pytest.fixture(scope="session")
+def page_servers(django_db_setup, django_db_blocker):
+    with servers.celery_sink("browser") as queue, servers.daphne(env={"CELERY_QUEUE": queue}) as ws:
+        env = {"CELERY_QUEUE": queue, "WEBSOCKET_URL": ws.url}
+        with servers.gunicorn(workers=2, env=env) as http:
+            yield Servers(http=http, ws=ws)
+
+
+@pytest.fixture(autouse=True)
+def orm_beside_playwright(monkeypatch):
+    """Playwright's sync API keeps an asyncio loop in this thread; Django then refuses ORM calls
+    as if they came from async code. They are plain blocking calls made while that loop waits
+    (as Playwright's documentation for Django tests advises)."""
+    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
+
+
+def in_thread(function, *args, **kwargs):
+    """Call a service in a thread of its own, so its pushes after commit (async_to_sync, which
+    refuses a thread with a running loop) reach the pages."""
+
+    def call():
+        try:
+            return function(*args, **kwargs)
+        finally:
+            connections.close_all()
+
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        return pool.submit(call).result()
+
+
+@pytest.fixture
+def chromium(transactional_db):
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(
+            executable_path=os.environ.get("CHROMIUM_PATH", "/usr/bin/chromium"),
+            headless=True,
+            args=CHROMIUM_ARGS,
+        )
+        yield browser
+        browser.close()
+        # Connections the test opened while Playwright ran belong to that async context; close
+        # them in it, or they outlive the test database.
+        connections.close_all()
+
+
+@pytest.fixture
+def open_page(chromium, page_servers):
+    """open_page(user, path, viewport=DESKTOP): a new browser context logged in as `user`
+    (None: logged out) showing `path`; with a site, once its live connection is up."""
+
+    def open_(user, path: str, *, viewport=DESKTOP, live=True):
+        context = chromium.new_context(viewport=viewport, base_url=page_servers.http)
+        if user is not None:
+            client = Client()
+            client.force_login(user)
+            session = client.cookies[settings.SESSION_COOKIE_NAME].value
+            cookie = {"name": settings.SESSION_COOKIE_NAME, "value": session}
+            context.add_cookies([{**cookie, "url": page_servers.http}])
+        page = context.new_page()
+        page.goto(path)
+        if live:
+            expect(page.locator("#live-status")).to_have_text("Live")
+        return page
+
+    return open_

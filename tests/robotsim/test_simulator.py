@@ -1,0 +1,168 @@
+"""Simulated robots against the server in this process, on a virtual clock (no sockets).
+
+Each step is one simulated second: robots move, heartbeat through the full HTTP stack (the
+test client), and the sweeps Celery beat would run are called directly; allocation runs eagerly
+on commit (conftest).
+"""
+
+import random
+
+import pytest
+
+from bench.inprocess import SERVER_URL, InProcessTaskApi, InProcessTransport
+from boards.models import RobotEvent
+from robots.graph import site_map_from_file
+from robots.leases import lease_sweep
+from robots.models import Lease
+from robotsim.client import RobotClient
+from robotsim.simulator import Behaviour, ManualClock, RobotLoop, SimRobot
+from scheduling.models import Task
+from scheduling.services import ack_timeout_sweep, due_sweep
+from tests import factories
+
+pytestmark = pytest.mark.django_db(transaction=True)
+
+BEHAVIOUR = Behaviour(staff_delay=(5.0, 10.0))
+
+
+class World:
+    def __init__(self, site):
+        self.clock = ManualClock()
+        self.site_map = site_map_from_file(factories.TINY_SITE)
+        self.loops: list[RobotLoop] = []
+        self.site = site
+
+    def robot(self, code: str, dock: str) -> SimRobot:
+        waypoint = self.site.waypoints.get(code=dock)
+        row = factories.robot_create(self.site, code, dock=waypoint)
+        client = RobotClient(
+            server_url=SERVER_URL, robot=code, token=row.token, transport=InProcessTransport()
+        )
+        robot = SimRobot(
+            client=client,
+            site_map=self.site_map,
+            dock=dock,
+            clock=self.clock,
+            rng=random.Random(code),
+            behaviour=BEHAVIOUR,
+        )
+        self.loops.append(RobotLoop(robot))
+        return robot
+
+    def run_until(self, done, *, limit: int = 3000) -> int:
+        for _ in range(limit):
+            now = self.clock.now() + 1
+            self.clock.set(now)
+            for loop in self.loops:
+                loop.step(now)
+            due_sweep()
+            ack_timeout_sweep()
+            lease_sweep()
+            if done():
+                return int(now)
+        raise AssertionError(f"not done within {limit} simulated seconds")
+
+
+@pytest.fixture
+def world(site):
+    return World(site)
+
+
+@pytest.fixture
+def api(staff):
+    return InProcessTaskApi(staff.api_token_plain)
+
+
+def order(api, pickups, dropoffs) -> str:
+    body = {"sender": "a", "receiver": "b", "contents": "Samples"}
+    status, reply = api.post({**body, "pickups": pickups, "dropoffs": dropoffs})
+    assert status == 201, reply
+    return reply["code"]
+
+
+def completed(*codes):
+    return lambda: Task.objects.filter(status="completed").count() == len(codes)
+
+
+def test_it_carries_a_delivery_across_floors_through_every_kind_of_resource(world, api):
+    robot = world.robot("R1", "1F-DOCK-1")
+    world.run_until(lambda: robot.client.seq > 1)
+    code = order(api, ["3F-WARD"], ["2F-LAB"])
+
+    world.run_until(completed(code))
+    world.run_until(lambda: robot.idle_at_dock and robot.client.unsent == 0)
+
+    kinds = [(e["type"], e.get("resource") or e.get("task")) for e in robot.log if "type" in e]
+    assert kinds == [
+        ("resource_entered", "ELEV"),
+        ("resource_released", "ELEV"),
+        ("resource_entered", "CORR-3F"),
+        ("resource_released", "CORR-3F"),
+        ("arrived", code),
+        ("loaded", code),
+        ("resource_entered", "CORR-3F"),
+        ("resource_released", "CORR-3F"),
+        ("resource_entered", "ELEV"),
+        ("resource_released", "ELEV"),
+        ("resource_entered", "DOOR-2F"),
+        ("resource_released", "DOOR-2F"),
+        ("arrived", code),
+        ("unloaded", code),
+        ("task_completed", code),
+        ("resource_entered", "DOOR-2F"),
+        ("resource_released", "DOOR-2F"),
+        ("resource_entered", "ELEV"),
+        ("resource_released", "ELEV"),
+    ]
+    sent = {e["id"] for e in robot.log if "type" in e}
+    assert set(RobotEvent.objects.values_list("event_id", flat=True)) == sent
+    assert not Lease.objects.live().exists()
+    assert robot.stats.rides == 3
+    assert robot.battery < 1.0
+
+
+def test_it_takes_a_second_task_on_its_way_and_finishes_both(world, api):
+    robot = world.robot("R1", "1F-DOCK-1")
+    world.run_until(lambda: robot.client.seq > 1)
+    first = order(api, ["1F-PHARM"], ["3F-WARD"])
+    world.run_until(lambda: robot.stats.loaded == 1)
+    second = order(api, ["2F-LAB"], ["3F-WARD"])
+
+    world.run_until(completed(first, second))
+
+    assert Task.objects.get(pk=int(second[2:])).robot.code == "R1"
+    assert robot.stats.completed == 2
+
+
+def test_two_robots_share_the_elevator_one_at_a_time(world, api, settings):
+    settings.ALLOCATION_POLICY = "single"  # one task each
+    world.robot("R1", "1F-DOCK-1")
+    world.robot("R2", "1F-DOCK-2")
+    world.run_until(lambda: all(loop.client.seq > 1 for loop in world.loops))
+    codes = [order(api, ["3F-WARD"], ["1F-PHARM"]), order(api, ["2F-LAB"], ["1F-PHARM"])]
+
+    world.run_until(completed(*codes))
+
+    rides = list(Lease.objects.filter(resource__code="ELEV").order_by("granted_at"))
+    assert {lease.robot.code for lease in rides} == {"R1", "R2"}
+    for earlier, later in zip(rides, rides[1:], strict=False):
+        assert earlier.ended_at <= later.granted_at
+
+
+def test_it_pauses_and_resumes_on_the_servers_word(world, api):
+    from boards.services import board_post
+    from robots.models import Robot
+
+    robot = world.robot("R1", "1F-DOCK-1")
+    world.run_until(lambda: robot.client.seq > 1)
+    row = Robot.objects.get(code="R1")
+    board_post(robot=row, type="action", body={"action": "pause"})
+    world.run_until(lambda: robot.status == "paused")
+    code = order(api, ["1F-PHARM"], ["2F-LAB"])
+    world.run_until(lambda: robot.stops, limit=10)
+
+    with pytest.raises(AssertionError):
+        world.run_until(lambda: robot.waypoint != "1F-DOCK-1", limit=60)
+
+    board_post(robot=row, type="action", body={"action": "resume"})
+    world.run_until(completed(code))
