@@ -10,7 +10,7 @@ from urllib.parse import parse_qs
 from channels.db import database_sync_to_async
 from channels.generic.websocket import AsyncJsonWebsocketConsumer
 
-from boards.events import robot_group, site_group
+from boards.events import robot_group, session_group, site_group
 from hospital_delivery.access import is_member
 from hospital_delivery.tokens import bearer_token
 from robots.models import Site
@@ -64,7 +64,8 @@ class SiteConsumer(AsyncJsonWebsocketConsumer):
     (or staff), and an allowed Origin (AllowedHostsOriginValidator, hospital_delivery.routing).
     Refusals accept first and then close, so the close code reaches the browser: 4401 not
     logged in, 4403 not allowed, 4404 no such site. The group is joined before the socket is
-    accepted, so a page that re-reads the state once open misses no event in between.
+    accepted, so a page that re-reads the state once open misses no event in between. When its
+    login session logs out, the socket closes with 4401 (other sessions of the user stay open).
     """
 
     async def connect(self):
@@ -75,13 +76,17 @@ class SiteConsumer(AsyncJsonWebsocketConsumer):
             await self.accept()
             await self.close(code=refusal)
             return
-        self.group = site_group(site_id)
-        await self.channel_layer.group_add(self.group, self.channel_name)
-        await self.accept()
+        self.groups = [site_group(site_id)]
+        session_key = self.scope["session"].session_key
+        if session_key:
+            self.groups.append(session_group(session_key))
+        for group in self.groups:
+            await self.channel_layer.group_add(group, self.channel_name)
+        await self.accept()  # the base class leaves self.groups when the socket closes
 
-    async def disconnect(self, code):
-        if hasattr(self, "group"):
-            await self.channel_layer.group_discard(self.group, self.channel_name)
+    async def session_ended(self, event):
+        """Its session logged out (boards.receivers): the page must log in again."""
+        await self.close(code=CLOSE_UNAUTHORIZED)
 
     async def receive_json(self, content, **kwargs):
         """Pages only listen: everything they do goes through HTTP."""

@@ -22,20 +22,21 @@ def robots_for_allocation(*, site: Site) -> list[Robot]:
     or Return to dock, until Resume), and with a reported battery level at or above the
     site's threshold (a robot that never reported has none).
     """
-    robots = list(
-        Robot.objects.filter(
-            site=site,
-            presence__in=REACHABLE,
-            paused_by_operator=False,
-            battery__isnull=False,
-            battery__gte=site.battery_threshold,
-        )
-        .exclude(status__in=UNAVAILABLE_STATUSES)
-        .order_by("code")
-    )
+    robots = list(available_robots(site).order_by("code"))
     for robot in robots:
         robot.site = site
     return robots
+
+
+def available_robots(site: Site) -> QuerySet[Robot]:
+    """The site's robots that may be offered a new task (see robots_for_allocation)."""
+    return Robot.objects.filter(
+        site=site,
+        presence__in=REACHABLE,
+        paused_by_operator=False,
+        battery__isnull=False,
+        battery__gte=site.battery_threshold,
+    ).exclude(status__in=UNAVAILABLE_STATUSES)
 
 
 def robot_position(robot: Robot) -> str:

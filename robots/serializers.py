@@ -36,6 +36,7 @@ class RobotSerializer(serializers.ModelSerializer):
             "last_seen_at",
             "unreachable_at",
             "offline_at",
+            "paused_by_operator",
             "state",
         ]
         read_only_fields = fields

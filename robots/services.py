@@ -10,13 +10,14 @@ changes what they show of a robot; built from the loaded row and the cached map,
 from datetime import datetime
 
 from django.db import transaction
-from django.db.models import Q
+from django.db.models import Q, QuerySet
 from django.utils import timezone
 
 from boards.events import publish_on_commit
 from hospital_delivery.tokens import token_new
 from robots.choices import Presence
-from robots.models import PresenceChange, Robot, RobotBoot
+from robots.models import PresenceChange, Robot, RobotBoot, Site
+from robots.selectors import available_robots
 from robots.signals import presence_changed
 from robots.wire import last_seen_refresh_due, robot_visible, robot_wire
 
@@ -43,11 +44,20 @@ def robot_lock(robot_id: int) -> Robot:
     not queue behind each other. And `no_key`: rows referring to the robot (a board message
     posted for it by another robot's transaction) may still be inserted meanwhile.
     """
-    return (
-        Robot.objects.select_for_update(of=("self",), no_key=True)
-        .select_related("site")
-        .get(pk=robot_id)
-    )
+    return _locking(Robot.objects).get(pk=robot_id)
+
+
+def robot_lock_if_available(robot_id: int, site: Site) -> Robot | None:
+    """Lock the site's robot as robot_lock does if it may still take a new task, else None.
+
+    For the scheduler, which reads the candidates unlocked: an operator's Pause, a presence
+    flip or a heartbeat reporting an error may have come in between.
+    """
+    return _locking(available_robots(site)).filter(pk=robot_id).first()
+
+
+def _locking(robots: QuerySet[Robot]) -> QuerySet[Robot]:
+    return robots.select_for_update(of=("self",), no_key=True).select_related("site")
 
 
 def robot_heartbeat_record(

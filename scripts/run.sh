@@ -107,10 +107,10 @@ hook_issue_robot_tokens() {
 
 # HOOK simulated fleet: prepare whatever the `fleet:` Procfile line needs. The fleet process
 # itself is started by honcho: add a `fleet:` line to the Procfile.
-# FLEET_SPEEDUP (default 10: a delivery across floors takes well under a minute of real time)
+# FLEET_SPEEDUP (default 20: a delivery across floors takes well under a minute of real time)
 # and FLEET_TRAFFIC (random deliveries per simulated hour, default 6) tune it.
 hook_prepare_fleet() {
-    export FLEET_SPEEDUP="${FLEET_SPEEDUP:-10}"
+    export FLEET_SPEEDUP="${FLEET_SPEEDUP:-20}"
     export FLEET_TRAFFIC="${FLEET_TRAFFIC:-6}"
     [[ -s var/fleet.json ]] || die "var/fleet.json is missing (demo_setup did not write it)"
 }

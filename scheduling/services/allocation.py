@@ -20,7 +20,7 @@ from django.utils import timezone
 
 from robots.models import Robot, Site
 from robots.selectors import robots_for_allocation
-from robots.services import robot_lock
+from robots.services import robot_lock_if_available
 from robots.sitemap import router_for
 from scheduling.allocator import Stop, TaskStops, allocate, best_plan
 from scheduling.choices import Cause, Priority, TaskStatus
@@ -110,13 +110,18 @@ def _allocation_lock(site_id: int) -> Site:
 def _allocate(task: Task, site: Site, now: datetime) -> bool:
     new = task_stops(task, task.stops.all(), site=site)
     routes = robot_routes(robots=robots_for_allocation(site=site))
-    candidates = _candidates(routes)
-    choice = _choose(new, task, candidates, router_for(site).travel_time)
-    if choice is None:
-        _wait(task, _why_not(routes, candidates))
-        return False
+    while True:
+        candidates = _candidates(routes)
+        choice = _choose(new, task, candidates, router_for(site).travel_time)
+        if choice is None:
+            _wait(task, _why_not(routes, candidates))
+            return False
+        robot = robot_lock_if_available(choice.robot_id, site)
+        if robot is not None:
+            break
+        # Paused, gone offline or in error since it was read: choose among the others.
+        del routes[choice.robot_id]
     read = routes[choice.robot_id]
-    robot = robot_lock(choice.robot_id)
     held = robot_route(robot=robot)
     stops = choice.stops
     if held.signature != read.signature:  # its route changed since it was read: plan on the new

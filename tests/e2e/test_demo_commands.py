@@ -126,3 +126,17 @@ def test_simulate_fleet_runs_robots_against_the_server_until_stopped(fleet_file)
 def test_simulate_fleet_refuses_a_dead_zone_where_robots_wait(fleet_file):
     with pytest.raises(CommandError, match="robots wait there"):
         call_command("simulate_fleet", "--fleet", str(fleet_file), "--dead-zone", "1F-PHARM")
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "message"),
+    [
+        ("--speedup", "0", "--speedup: must be above 0"),
+        ("--traffic", "-1", "--traffic: must be 0 or more"),
+        ("--staff-delay", "40,10", "--staff-delay: want 0 <= MIN <= MAX"),
+        ("--request-loss", "1.5", "request_loss"),
+    ],
+)
+def test_simulate_fleet_names_the_option_it_refuses(fleet_file, option, value, message):
+    with pytest.raises(CommandError, match=message):
+        call_command("simulate_fleet", "--fleet", str(fleet_file), option, value)

@@ -37,6 +37,7 @@ def test_it_shows_one_robot(api, robot, staff):
 
     assert response.status_code == 200
     assert response.json()["presence"] == "offline"
+    assert response.json()["paused_by_operator"] is False
     assert response.json()["state"]["status"] == "unknown"
 
 

@@ -9,6 +9,7 @@ from django.test.utils import CaptureQueriesContext
 
 from boards.models import BoardMessage
 from robots.models import Robot, Waypoint
+from robots.selectors import robots_for_allocation
 from scheduling.models import Task, TaskTransition
 from scheduling.services import due_sweep, task_allocate
 from scheduling.services.allocation import NO_ROBOT, NO_ROUTE
@@ -129,6 +130,20 @@ def test_it_only_offers_tasks_to_available_robots(r1, r2, site, state):
     Robot.objects.filter(pk=r1.pk).update(**state)
 
     assert allocated(request(site)) == r2
+
+
+def test_a_robot_paused_after_it_was_read_is_passed_over(r1, r2, site, monkeypatch):
+    from scheduling.services import allocation
+
+    def read_then_operator_pauses_r1(*, site):
+        robots = robots_for_allocation(site=site)
+        Robot.objects.filter(pk=r1.pk).update(paused_by_operator=True)
+        return robots
+
+    monkeypatch.setattr(allocation, "robots_for_allocation", read_then_operator_pauses_r1)
+
+    assert allocated(request(site)) == r2
+    assert pending_plans(r1) == []
 
 
 def test_an_unreachable_robot_may_still_get_a_task(r1, site):

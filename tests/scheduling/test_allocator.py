@@ -227,6 +227,39 @@ def test_it_plans_long_routes_by_heuristic_no_worse_than_cheapest_insertion(seed
     assert math.isfinite(got.added_cost)
 
 
+@pytest.mark.parametrize("seed", range(6))
+def test_its_long_routes_cannot_be_shortened_by_moving_one_run_of_stops(seed):
+    instance = generated(seed, robots=2, held=EXACT_TASK_LIMIT + 2, capacity=(6, 8))
+    for robot in instance.robots:
+        plan = best_plan(robot, instance.travel_time, extra=instance.task)
+        stops = list(plan.stops)
+        for length in (1, 2, 3):
+            for i in range(len(stops) - length + 1):
+                run, rest = stops[i : i + length], stops[:i] + stops[i + length :]
+                for j in range(len(rest) + 1):
+                    moved = rest[:j] + run + rest[j:]
+                    if _feasible(robot, moved):
+                        assert _route_cost(robot, moved, instance.travel_time) >= plan.cost - SAME
+
+
+def _feasible(robot: RobotRoute, stops) -> bool:
+    """Every drop-off after all its task's pick-ups; load within [0, capacity]."""
+    load = robot.load
+    for n, stop in enumerate(stops):
+        later_pickups = [s for s in stops[n:] if s.action == PICKUP and s.task == stop.task]
+        if stop.action != PICKUP and later_pickups:
+            return False
+        load += stop.load_change
+        if not 0 <= load <= robot.capacity:
+            return False
+    return True
+
+
+def _route_cost(robot: RobotRoute, stops, travel_time) -> float:
+    places = [robot.start, *(stop.place for stop in stops)]
+    return sum(travel_time(a, b) for a, b in zip(places, places[1:], strict=False))
+
+
 def test_it_generates_metric_travel_times():
     site = building(_rng(8))
     places = site.places[::7]

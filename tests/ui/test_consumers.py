@@ -134,3 +134,32 @@ def test_it_forwards_only_its_own_sites_events(site, robot):
         return nothing
 
     assert run(scenario)
+
+
+def test_it_closes_a_sessions_sockets_when_that_session_logs_out(site):
+    nurse = factories.user_create("kim", "nurse")
+    leaving, staying = Client(), Client()
+    leaving.force_login(nurse)
+    staying.force_login(nurse)
+
+    def cookie(client):
+        return (
+            b"cookie",
+            f"{settings.SESSION_COOKIE_NAME}={client.cookies['sessionid'].value}".encode(),
+        )
+
+    async def scenario():
+        mine = socket(site.code, ORIGIN, cookie(leaving))
+        other = socket(site.code, ORIGIN, cookie(staying))
+        assert (await mine.connect(timeout=5))[0]
+        assert (await other.connect(timeout=5))[0]
+        await database_sync_to_async(leaving.post)("/accounts/logout/")
+        closed = await mine.receive_output(timeout=5)
+        other_quiet = await other.receive_nothing(timeout=0.5)
+        await other.disconnect()
+        return closed, other_quiet
+
+    closed, other_quiet = run(scenario)
+
+    assert closed == {"type": "websocket.close", "code": 4401}
+    assert other_quiet

@@ -22,6 +22,16 @@ def _pair(text: str) -> tuple[float, float]:
     return float(low), float(high or low)
 
 
+def _check_options(options) -> None:
+    if options["speedup"] <= 0:
+        raise CommandError(f"--speedup: must be above 0, not {options['speedup']:g}")
+    if options["traffic"] < 0:
+        raise CommandError(f"--traffic: must be 0 or more, not {options['traffic']:g}")
+    low, high = options["staff_delay"]
+    if not 0 <= low <= high:
+        raise CommandError(f"--staff-delay: want 0 <= MIN <= MAX, not {low:g},{high:g}")
+
+
 class Command(BaseCommand):
     help = "Run simulated delivery robots (and optional request traffic) against the server."
 
@@ -82,6 +92,7 @@ class Command(BaseCommand):
         self.stdout.write(f"fleet stopped; network: {fleet.network_stats()}")
 
     def _config(self, options) -> FleetConfig:
+        _check_options(options)
         try:
             file = fleet_file_read(options["fleet"])
         except (OSError, ValueError) as exc:
