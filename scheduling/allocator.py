@@ -109,6 +109,59 @@ def allocate(
     return best
 
 
+def allocate_for_delivery_time(
+    task: TaskStops,
+    robots: Sequence[RobotRoute],
+    travel_time: TravelTime,
+    *,
+    waiting_weight: float = 1.0,
+) -> Allocation | None:
+    """Like allocate, but the robot is chosen by added travel plus the waiting it causes.
+
+    `allocate` (the paper's rule) gives a task to the robot whose route it lengthens least. A
+    robot already out on a long route is nearly always that robot, so it collects task after
+    task while the others stay at their docks, and deliveries wait (bench/fleet_day.py).
+    Here each robot's route with the task is still its least-travel route (exact up to
+    EXACT_TASK_LIMIT tasks), but the robot is the one minimising
+
+        added travel + waiting_weight * (the new task's travel time to its last drop-off
+                                         + the delay it adds to the held tasks' drop-offs)
+
+    so a busy robot still takes a task on its way, and an idle one takes a task a busy robot
+    would only reach late. Every robot is solved (no cross-robot pruning): fine for the fleet
+    of one hospital. `added_cost` of the result is the added travel alone.
+    """
+    travel = _Travel(travel_time)
+    best = None
+    for robot in sorted(robots, key=lambda robot: robot.robot):
+        base = _plan(robot, robot.tasks, travel)
+        plan = base and _plan(robot, (*robot.tasks, task), travel)
+        if not plan or not math.isfinite(plan.cost):
+            continue
+        waiting = _dropoff_delay(robot.start, base, plan, task.code, travel)
+        score = plan.cost - base.cost + waiting_weight * waiting
+        if best is None or score < best[0] - TOLERANCE:
+            best = (score, Allocation(robot.robot, plan, plan.cost - base.cost))
+    return best and best[1]
+
+
+def _dropoff_delay(start: str, base: Plan, plan: Plan, new: str, travel: _Travel) -> float:
+    """When the new task is done in `plan`, plus how much later each held task is done."""
+    before, after = _done_at(start, base, travel), _done_at(start, plan, travel)
+    delay = sum(max(0.0, after[code] - done) for code, done in before.items())
+    return after[new] + delay
+
+
+def _done_at(start: str, plan: Plan, travel: _Travel) -> dict[str, float]:
+    """Per task, the travel time from `start` to its last stop in the plan."""
+    done, clock, here = {}, 0.0, start
+    for stop in plan.stops:
+        clock += travel[here][stop.place]
+        done[stop.task] = clock
+        here = stop.place
+    return done
+
+
 def added_cost_lower_bound(task: TaskStops, robot: RobotRoute, travel_time: TravelTime) -> float:
     """A lower bound on how much `task` lengthens the robot's best route (metric times only)."""
     return _lower_bound(task, robot, _Travel(travel_time))

@@ -5,8 +5,9 @@ workers never allocate on one site at once. Then it locks the one chosen robot. 
 else that changes a robot's route holds that robot's lock, so the chosen robot's route is
 read again under its lock, and the plan is built on that.
 
-With settings.ALLOCATION_POLICY = "single" only robots holding no task are candidates: single-task
-allocation, as hospital fleets ran before the source paper (measured in bench/fleet_day.py).
+settings.ALLOCATION_POLICY picks the rule: "multi" (the least added travel, the source paper's),
+"delivery_time" (added travel plus the waiting it causes), or "single" (only robots holding no
+task are candidates, as hospital fleets ran before the paper); see bench/fleet_day.py.
 """
 
 import logging
@@ -22,7 +23,13 @@ from robots.models import Robot, Site
 from robots.selectors import robots_for_allocation
 from robots.services import robot_lock_if_available
 from robots.sitemap import router_for
-from scheduling.allocator import Stop, TaskStops, allocate, best_plan
+from scheduling.allocator import (
+    Stop,
+    TaskStops,
+    allocate,
+    allocate_for_delivery_time,
+    best_plan,
+)
 from scheduling.choices import Cause, Priority, TaskStatus
 from scheduling.models import AllocationLock, Task
 from scheduling.selectors import HeldRoute, robot_route, robot_routes, task_stops
@@ -159,9 +166,10 @@ def _choose(
     """The best robot for the task; the robot that let it time out last only if no other can."""
     by_code = {held.route.robot: pk for pk, held in routes.items()}
     others = [h.route for pk, h in routes.items() if pk != task.timed_out_robot_id]
-    allocation = allocate(new, others, travel_time) if others else None
+    rule = allocate_for_delivery_time if settings.ALLOCATION_POLICY == "delivery_time" else allocate
+    allocation = rule(new, others, travel_time) if others else None
     if allocation is None and task.timed_out_robot_id in routes:
-        allocation = allocate(new, [routes[task.timed_out_robot_id].route], travel_time)
+        allocation = rule(new, [routes[task.timed_out_robot_id].route], travel_time)
     if allocation is None:
         return None
     return _Choice(by_code[allocation.robot], allocation.plan.stops)

@@ -18,6 +18,7 @@ from scheduling.allocator import (
     RobotRoute,
     added_cost_lower_bound,
     allocate,
+    allocate_for_delivery_time,
     best_plan,
     cheapest_insertion,
     enumerate_best_plan,
@@ -258,6 +259,50 @@ def _feasible(robot: RobotRoute, stops) -> bool:
 def _route_cost(robot: RobotRoute, stops, travel_time) -> float:
     places = [robot.start, *(stop.place for stop in stops)]
     return sum(travel_time(a, b) for a, b in zip(places, places[1:], strict=False))
+
+
+def _on_a_line(a: str, b: str) -> float:
+    """Places named by their position on a corridor, in seconds: "600" -> 600."""
+    return abs(float(a) - float(b))
+
+
+def _carrying_to(start: str, dropoff: str, code="R-01") -> RobotRoute:
+    """A robot at `start` with one task on board, for `dropoff`."""
+    held = replace(one_to_one("T-0001", start, dropoff), pickups=())
+    return RobotRoute(code, start=start, load=1, capacity=4, tasks=(held,))
+
+
+def test_by_delivery_time_an_idle_robot_nearby_takes_what_a_busy_one_would_reach_late():
+    busy = _carrying_to("0", "1000")
+    idle = RobotRoute("R-02", start="500", load=0, capacity=4, tasks=())
+    task = one_to_one("T-0002", "600", "700")
+
+    assert allocate(task, [busy, idle], _on_a_line).robot == "R-01"  # on its way: adds nothing
+    chosen = allocate_for_delivery_time(task, [busy, idle], _on_a_line)
+    assert (chosen.robot, chosen.added_cost) == ("R-02", 200.0)  # delivered at 200 s, not 700 s
+
+
+def test_by_delivery_time_a_busy_robot_still_takes_a_task_on_its_way():
+    busy = _carrying_to("0", "1000")
+    far = RobotRoute("R-02", start="5000", load=0, capacity=4, tasks=())
+    task = one_to_one("T-0002", "600", "700")
+
+    chosen = allocate_for_delivery_time(task, [busy, far], _on_a_line)
+
+    assert (chosen.robot, chosen.added_cost) == ("R-01", 0.0)
+    assert [stop.place for stop in chosen.plan.stops] == ["600", "700", "1000"]
+
+
+def test_by_delivery_time_it_counts_the_delay_to_the_tasks_a_robot_holds():
+    # R-01's least-travel route with the task, 500 -> 600 -> 700 -> 0, adds 400 s of travel
+    # (R-02 would add 450 s) and delivers the new task at 200 s, but its own at 900 s, not
+    # 500 s. Counting that delay, R-02 is the better choice: 450 + 450 < 400 + 200 + 400.
+    busy = _carrying_to("500", "0")
+    idle = RobotRoute("R-02", start="950", load=0, capacity=4, tasks=())
+    task = one_to_one("T-0002", "600", "700")
+
+    assert allocate(task, [busy, idle], _on_a_line).robot == "R-01"
+    assert allocate_for_delivery_time(task, [busy, idle], _on_a_line).robot == "R-02"
 
 
 def test_it_generates_metric_travel_times():
