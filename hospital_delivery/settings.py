@@ -149,12 +149,13 @@ SPECTACULAR_SETTINGS = {
 }
 
 # How the scheduler gives out tasks (measured side by side in bench/fleet_day.py):
+# "delivery_time" (default): online multi-task allocation choosing the robot by added travel
+#   plus the waiting it causes (scheduling.allocator.allocate_for_delivery_time);
 # "multi": online multi-task allocation as in the source paper, the robot whose route the task
-#   lengthens least; "delivery_time": online multi-task allocation choosing the robot by added
-#   travel plus the waiting it causes (scheduling.allocator.allocate_for_delivery_time);
+#   lengthens least (least travel, but one busy robot collects the tasks and deliveries wait);
 # "single": a robot takes a task only when it holds none, as fleets ran before the paper.
-ALLOCATION_POLICIES = ("multi", "delivery_time", "single")
-ALLOCATION_POLICY = env_str("ALLOCATION_POLICY", "multi")
+ALLOCATION_POLICIES = ("delivery_time", "multi", "single")
+ALLOCATION_POLICY = env_str("ALLOCATION_POLICY", "delivery_time")
 if ALLOCATION_POLICY not in ALLOCATION_POLICIES:
     raise ImproperlyConfigured(
         f"ALLOCATION_POLICY={ALLOCATION_POLICY!r}: use one of {', '.join(ALLOCATION_POLICIES)}"
