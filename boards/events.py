@@ -37,8 +37,10 @@ def session_group(session_key: str) -> str:
 
 
 def session_sockets_close(*, session_key: str) -> None:
-    """Close the pages' sockets of a session that has just logged out."""
-    _send(session_group(session_key), {"type": "session.ended"})
+    """Close the pages' sockets of a session that has just logged out (after commit, if any;
+    like every push, a failure is logged and the logout goes ahead)."""
+    message = {"type": "session.ended"}
+    transaction.on_commit(lambda: _send(session_group(session_key), message), robust=True)
 
 
 def publish_on_commit(*, site_id: int, kind: str, data: dict) -> None:

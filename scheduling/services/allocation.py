@@ -1,4 +1,4 @@
-"""Allocation: a due task goes to the robot whose remaining route it lengthens least.
+"""Allocation: a due task goes to the best robot, which plans its remaining route anew.
 
 Runs under the site's allocation lock (AllocationLock row), taken first and only here, so two
 workers never allocate on one site at once. Then it locks the one chosen robot. Everything
