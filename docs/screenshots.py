@@ -22,14 +22,6 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 OUT = REPO / "docs" / "screenshots"
 PASSWORD = "screenshots-only"
-CHROMIUM_ARGS = [
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
 
 
 def main() -> None:
@@ -315,13 +307,11 @@ def scene(http: str) -> None:
 def photograph(http: str) -> None:
     from playwright.sync_api import expect, sync_playwright
 
+    from tests import servers
+
     OUT.mkdir(parents=True, exist_ok=True)
     with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(
-            executable_path=os.environ.get("CHROMIUM_PATH", "/usr/bin/chromium"),
-            headless=True,
-            args=CHROMIUM_ARGS,
-        )
+        browser = servers.chromium_launch(playwright)
         context = browser.new_context(
             base_url=http, viewport={"width": 1440, "height": 900}, locale="en-GB"
         )

@@ -15,6 +15,26 @@ from django.conf import settings
 REPO = Path(__file__).resolve().parent.parent
 
 
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
+
+
+def chromium_launch(playwright):
+    """Debian's headless Chromium (CHROMIUM_PATH, default /usr/bin/chromium), never a browser
+    Playwright downloaded: for the browser tests and docs/screenshots.py."""
+    return playwright.chromium.launch(
+        executable_path=os.environ.get("CHROMIUM_PATH", "/usr/bin/chromium"),
+        headless=True,
+        args=CHROMIUM_ARGS,
+    )
+
+
 def free_port() -> int:
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))

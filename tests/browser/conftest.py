@@ -3,7 +3,6 @@ README: gunicorn (pages, API, heartbeats) and daphne (websockets) as subprocesse
 database. Never `playwright install`: CHROMIUM_PATH (default /usr/bin/chromium; ./scripts/test.sh
 installs Debian's package when missing)."""
 
-import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -13,16 +12,8 @@ from django.db import connections
 from django.test import Client
 from playwright.sync_api import expect, sync_playwright
 
-from tests import servers
+from tests import factories, servers
 
-CHROMIUM_ARGS = [
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
 DESKTOP = {"width": 1280, "height": 900}
 TABLET = {"width": 768, "height": 1024}
 
@@ -31,6 +22,16 @@ TABLET = {"width": 768, "height": 1024}
 class Servers:
     http: str
     ws: servers.Daphne
+
+
+@pytest.fixture
+def nurse(site):
+    return factories.user_create("kim", "nurse")
+
+
+@pytest.fixture
+def operator(site):
+    return factories.user_create("park", "operator")
 
 
 @pytest.fixture(scope="session")
@@ -66,11 +67,7 @@ def in_thread(function, *args, **kwargs):
 @pytest.fixture
 def chromium(transactional_db):
     with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(
-            executable_path=os.environ.get("CHROMIUM_PATH", "/usr/bin/chromium"),
-            headless=True,
-            args=CHROMIUM_ARGS,
-        )
+        browser = servers.chromium_launch(playwright)
         yield browser
         browser.close()
         # Connections the test opened while Playwright ran belong to that async context; close

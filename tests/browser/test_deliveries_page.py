@@ -14,11 +14,6 @@ from tests.scheduling.conftest import request
 pytestmark = pytest.mark.browser
 
 
-@pytest.fixture
-def nurse(site):
-    return factories.user_create("kim", "nurse")
-
-
 def schedule_row(page, text: str):
     return page.locator("#schedule tbody tr").filter(has_text=text)
 

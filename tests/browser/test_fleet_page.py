@@ -5,23 +5,12 @@ from playwright.sync_api import expect
 
 from robots.alerts import alert_raise
 from robots.models import AlertKind
-from tests import factories
 from tests.browser.conftest import in_thread
 from tests.conftest import RobotHttp
 
 pytestmark = pytest.mark.browser
 
 AT_THE_LAB = {"status": "moving", "floor": "2F", "waypoint": "2F-LAB", "x": 20.0, "y": 28.0}
-
-
-@pytest.fixture
-def nurse(site):
-    return factories.user_create("kim", "nurse")
-
-
-@pytest.fixture
-def operator(site):
-    return factories.user_create("park", "operator")
 
 
 @pytest.fixture
