@@ -55,6 +55,17 @@ def wake_on_commit(*, robot_code: str, message_id: str) -> None:
     transaction.on_commit(lambda: _send(robot_group(robot_code), message), robust=True)
 
 
+def wake_now(*, robot_code: str, message_id: str) -> None:
+    """wake_on_commit, but before the commit: only for a caller holding the robot's row lock
+    (robots.services.robot_lock), which the heartbeat the wake causes waits for, then finding
+    message_id committed. The robot's trip to the server overlaps the rest of the transaction;
+    if it rolls back, the robot has heartbeated once for nothing."""
+    try:
+        _send(robot_group(robot_code), {"type": "robot.wake", "message": message_id})
+    except Exception:
+        logger.exception("waking %s failed", robot_code)
+
+
 def _send(group: str, message: dict) -> None:
     layer = get_channel_layer()
     if layer is None:

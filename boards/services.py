@@ -11,11 +11,11 @@ from django.db import transaction
 from django.db.models import QuerySet
 from django.utils import timezone
 
-from boards.events import wake_on_commit
+from boards.events import wake_now, wake_on_commit
 from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.signals import heartbeat_applied
 from robots.models import Robot
-from robots.services import robot_heartbeat_record, robot_lock
+from robots.services import robot_heartbeat_record
 
 
 class HeartbeatRejected(Exception):
@@ -51,16 +51,17 @@ class HeartbeatReply:
     messages: list[BoardMessage]
 
 
-@transaction.atomic
-def heartbeat_apply(*, robot_id: int, heartbeat: dict, now: datetime | None = None):
-    """Apply one validated heartbeat (boards.serializers.HeartbeatSerializer) of a robot.
+@transaction.atomic(savepoint=False)  # if it raises, the caller's whole transaction rolls back
+def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = None):
+    """Apply one validated heartbeat (boards.serializers.HeartbeatSerializer) of a robot whose
+    row the caller locked in its transaction (robots.services.robot_lock, or the heartbeat
+    view's RobotTokenLockingAuthentication).
 
     Acks and events are applied even when the heartbeat is stale (an older seq of the
     current boot, or an earlier boot): they are idempotent. Its state is applied only if it
     is the newest the server has seen.
     """
     now = now or timezone.now()
-    robot = robot_lock(robot_id)
     acked = board_ack(robot=robot, public_ids=heartbeat["acks"], now=now)
     events = _events_record(robot, heartbeat, now)
     requests = _requests_record(robot, heartbeat["requests"], now)
@@ -173,13 +174,20 @@ def board_ack(*, robot: Robot, public_ids: list[str], now: datetime) -> list[Boa
 
 
 def board_post(
-    *, robot: Robot, type: str, body: dict, key: str = "", supersede: bool = False
+    *,
+    robot: Robot,
+    type: str,
+    body: dict,
+    key: str = "",
+    supersede: bool = False,
+    robot_locked: bool = False,
 ) -> BoardMessage:
     """Post a message for a robot; it goes out in every heartbeat response until acked.
 
     With supersede, pending messages of the same robot and key are withdrawn first (a newer
     plan replaces an unacked older one). A robot with an open push channel is woken once the
-    transaction commits.
+    transaction commits, or at once if the caller holds the robot's row lock (`robot_locked`;
+    boards.events.wake_now).
     """
     now = timezone.now()
     if supersede:
@@ -189,7 +197,8 @@ def board_post(
             now=now,
         )
     message = BoardMessage.objects.create(robot=robot, type=type, body=body, key=key, posted_at=now)
-    wake_on_commit(robot_code=robot.code, message_id=message.public_id)
+    wake = wake_now if robot_locked else wake_on_commit
+    wake(robot_code=robot.code, message_id=message.public_id)
     return message
 
 

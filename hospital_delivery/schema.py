@@ -17,6 +17,7 @@ class ApiTokenScheme(OpenApiAuthenticationExtension):
 
 class RobotTokenScheme(OpenApiAuthenticationExtension):
     target_class = "robots.authentication.RobotTokenAuthentication"
+    match_subclasses = True  # the heartbeat's RobotTokenLockingAuthentication too
     name = "robotToken"
 
     def get_security_definition(self, auto_schema):

@@ -161,6 +161,11 @@ if ALLOCATION_POLICY not in ALLOCATION_POLICIES:
         f"ALLOCATION_POLICY={ALLOCATION_POLICY!r}: use one of {', '.join(ALLOCATION_POLICIES)}"
     )
 
+# A request due now is allocated in the request itself when no allocation is running on its
+# site, so it commits with its robot chosen and the plan posted (bench/latency.py); otherwise,
+# and always when this is off, by the Celery worker.
+ALLOCATE_ON_REQUEST = env_bool("ALLOCATE_ON_REQUEST", True)
+
 # Robot heartbeat bodies above this size are refused with 413 (protocol v1).
 HEARTBEAT_MAX_BYTES = 64 * 1024
 

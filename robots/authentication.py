@@ -8,17 +8,26 @@ from robots.services import robot_authenticate
 class RobotTokenAuthentication(authentication.BaseAuthentication):
     """`Authorization: Bearer <robot token>`; the robot becomes request.auth."""
 
+    lock_robot = False
+
     def authenticate(self, request):
         token = bearer_token(request.headers.get("Authorization"))
         if token is None:
             return None
-        robot = robot_authenticate(token=token)
+        robot = robot_authenticate(token=token, lock=self.lock_robot)
         if robot is None:
             raise exceptions.AuthenticationFailed("invalid or revoked robot token")
         return AnonymousUser(), robot
 
     def authenticate_header(self, request):
         return "Bearer"
+
+
+class RobotTokenLockingAuthentication(RobotTokenAuthentication):
+    """The same, and the robot's row is locked (robots.services.robot_lock) for the rest of the
+    transaction the view runs in: a heartbeat's lock, taken by the query that authenticates."""
+
+    lock_robot = True
 
 
 class IsRobotInUrl(permissions.BasePermission):

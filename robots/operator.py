@@ -44,6 +44,7 @@ def robot_action(*, robot: Robot, action: str, by, now: datetime | None = None) 
         body={"action": action},
         key=ACTION_KEY,
         supersede=True,
+        robot_locked=True,
     )
     held = action != OperatorActionKind.RESUME
     if robot.paused_by_operator != held:

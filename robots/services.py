@@ -22,9 +22,11 @@ from robots.signals import presence_changed
 from robots.wire import last_seen_refresh_due, robot_visible, robot_wire
 
 
-def robot_authenticate(*, token: str) -> Robot | None:
-    """The robot a bearer token belongs to, or None."""
-    return Robot.objects.with_token(token).select_related("site").first()
+def robot_authenticate(*, token: str, lock: bool = False) -> Robot | None:
+    """The robot a bearer token belongs to, or None; with `lock`, its row locked for the rest
+    of the transaction, as robot_lock does."""
+    robots = Robot.objects.with_token(token)
+    return (_locking(robots) if lock else robots.select_related("site")).first()
 
 
 @transaction.atomic

@@ -31,9 +31,9 @@ from scheduling.allocator import (
     best_plan,
 )
 from scheduling.choices import Cause, Priority, TaskStatus
-from scheduling.models import AllocationLock, Task
+from scheduling.models import AllocationLock, Task, TaskStop
 from scheduling.selectors import HeldRoute, robot_route, robot_routes, task_stops
-from scheduling.services.history import task_record
+from scheduling.services.history import allocation_enqueue, task_record
 from scheduling.services.plans import plan_post
 
 logger = logging.getLogger(__name__)
@@ -53,12 +53,33 @@ def task_allocate(*, task_id: int, now: datetime | None = None) -> bool:
     site_id = Task.objects.filter(pk=task_id).values_list("site_id", flat=True).first()
     if site_id is None:
         return False
-    with transaction.atomic():
-        site = _allocation_lock(site_id)
-        task = Task.objects.filter(pk=task_id, status=TaskStatus.DUE, robot__isnull=True).first()
-        if task is None:
-            return False
-        return _allocate(task, site, now)
+    try:
+        with transaction.atomic():
+            site = _allocation_lock(site_id)
+            task = Task.objects.filter(pk=task_id, status=TaskStatus.DUE, robot__isnull=True)
+            task = task.first()
+            return task is not None and _allocate(task, site, now)
+    except _CancelledMeanwhile:
+        return False
+
+
+def task_allocate_created(*, task: Task, stops: list[TaskStop], now: datetime) -> None:
+    """Allocate a task just created due, in the transaction that creates it, if no allocation
+    is running on its site; else, or if this fails, the Celery worker allocates it after commit.
+
+    The nurse's request then commits with its robot chosen and the plan posted: no worker
+    round trip on the way from the request to the robot (bench/latency.py). It never waits for
+    the site's lock, so a burst of requests is still allocated one at a time by the worker.
+    """
+    try:
+        with transaction.atomic():  # a savepoint: on failure the task stays created and due
+            site = _allocation_lock(task.site_id, wait=False)
+            if site is not None:
+                _allocate(task, site, now, stops=stops)
+                return
+    except Exception:
+        logger.exception("allocating new task %s failed; the worker tries again", task.code)
+    allocation_enqueue(task.pk)
 
 
 def due_sweep(*, now: datetime | None = None) -> int:
@@ -104,18 +125,22 @@ def task_make_due(*, task_id: int, now: datetime) -> bool:
     return bool(claimed)
 
 
-def _allocation_lock(site_id: int) -> Site:
-    """Lock the site's allocation lock row for the rest of the transaction; return the site."""
-    locked = AllocationLock.objects.select_for_update(of=("self",)).select_related("site")
-    lock = locked.filter(site_id=site_id).first()
-    if lock is None:
-        AllocationLock.objects.get_or_create(site_id=site_id)
-        lock = locked.get(site_id=site_id)
-    return lock.site
+def _allocation_lock(site_id: int, *, wait: bool = True) -> Site | None:
+    """Lock the site's allocation lock row for the rest of the transaction; return the site.
+
+    Without `wait`, None if another transaction holds it.
+    """
+    locked = AllocationLock.objects.select_for_update(of=("self",), skip_locked=not wait)
+    lock = locked.select_related("site").filter(site_id=site_id).first()
+    if lock is None:  # held by another transaction, or the site's first allocation
+        _, created = AllocationLock.objects.get_or_create(site_id=site_id)
+        if created or wait:
+            lock = locked.select_related("site").get(site_id=site_id)
+    return lock.site if lock else None
 
 
-def _allocate(task: Task, site: Site, now: datetime) -> bool:
-    new = task_stops(task, task.stops.all(), site=site)
+def _allocate(task: Task, site: Site, now: datetime, stops: list[TaskStop] | None = None) -> bool:
+    new = task_stops(task, task.stops.all() if stops is None else stops, site=site)
     routes = robot_routes(robots=robots_for_allocation(site=site))
     while True:
         candidates = _candidates(routes)
@@ -175,20 +200,26 @@ def _choose(
     return _Choice(by_code[allocation.robot], allocation.plan.stops)
 
 
+class _CancelledMeanwhile(Exception):
+    """The task stopped being due while it was allocated: roll the allocation back."""
+
+
 def _assign(task: Task, robot: Robot, held: HeldRoute, stops, now: datetime) -> bool:
+    """Post the plan, then claim the task (raising _CancelledMeanwhile if that fails): the plan
+    goes first because posting it wakes the robot, which travels while this commits."""
     ack_due_at = now + timedelta(seconds=robot.site.ack_timeout)
     fields = {"robot": robot, "assigned_at": now, "ack_due_at": ack_due_at, "waiting_reason": ""}
+    tasks = {**held.tasks, task.code: task}
+    plan_post(robot=robot, start=held.route.start, stops=stops, tasks=tasks, now=now)
     claimed = Task.objects.filter(pk=task.pk, status=TaskStatus.DUE, robot__isnull=True).update(
         status=TaskStatus.ASSIGNED, **fields
     )
-    if not claimed:  # cancelled meanwhile
-        return False
+    if not claimed:
+        raise _CancelledMeanwhile(task.code)
     for name, value in fields.items():
         setattr(task, name, value)
     task.status = TaskStatus.ASSIGNED
     task_record(task, old=TaskStatus.DUE, at=now, cause=Cause.ALLOCATION, robot=robot)
-    tasks = {**held.tasks, task.code: task}
-    plan_post(robot=robot, start=held.route.start, stops=stops, tasks=tasks, now=now)
     return True
 
 

@@ -34,8 +34,9 @@ def plan_post(
     wire, arrivals = _wire_stops(router, start, stops)
     codes = dict.fromkeys(stop.task for stop in stops)
     body = {"stops": wire, "tasks": {code: tasks[code].wire() for code in codes}}
+    plan = _post(robot, body, now)  # first: the robot is woken, and travels while we go on
     _etas_store(tasks, arrivals, now)
-    return _post(robot, body, now)
+    return plan
 
 
 def plan_dock_post(*, robot: Robot, now: datetime) -> RobotPlan:
@@ -79,11 +80,16 @@ def plan_withdraw_pending(*, robot: Robot, reason: str, now: datetime) -> int:
 
 
 def _post(robot: Robot, body: dict, now: datetime) -> RobotPlan:
-    current = RobotPlan.objects.filter(robot=robot).first()
+    current = RobotPlan.objects.filter(robot=robot).select_related("message").first()
     version = max(current.version if current else 0, robot.plan_version) + 1
     body = {"plan_version": version, **body}
     message = board_post(
-        robot=robot, type=MessageType.PLAN, key=PLAN_KEY, body=body, supersede=True
+        robot=robot,
+        type=MessageType.PLAN,
+        key=PLAN_KEY,
+        body=body,
+        supersede=_may_be_pending(current),
+        robot_locked=True,
     )
     if current is None:
         return RobotPlan.objects.create(
@@ -92,6 +98,12 @@ def _post(robot: Robot, body: dict, now: datetime) -> RobotPlan:
     current.version, current.body, current.message, current.posted_at = version, body, message, now
     current.save(update_fields=["version", "body", "message", "posted_at"])
     return current
+
+
+def _may_be_pending(current: RobotPlan | None) -> bool:
+    """Whether the robot may have a plan on its board still. Only this module posts plans and
+    each is recorded here, so once the last one is acked or withdrawn none is pending."""
+    return current is None or current.message is None or current.message.is_pending
 
 
 def _wire_stops(router: Router, start: str, stops: Sequence[Stop]):

@@ -3,6 +3,7 @@
 import logging
 from datetime import datetime, timedelta
 
+from django.conf import settings
 from django.db import IntegrityError, transaction
 from django.utils import timezone
 
@@ -11,6 +12,7 @@ from scheduling.choices import Cause, Priority, StopAction, TaskStatus
 from scheduling.models import RecurringRequest, Task, TaskStop
 from scheduling.recurrence import next_occurrence, occurrences
 from scheduling.selectors import stations_by_code
+from scheduling.services.allocation import task_allocate_created
 from scheduling.services.history import allocation_enqueue, task_record
 
 logger = logging.getLogger(__name__)
@@ -79,7 +81,8 @@ def task_create(
     now: datetime,
     **extra,
 ) -> Task:
-    """One task with its stops; allocated at once (on commit) if its time has come."""
+    """One task with its stops; allocated (settings.ALLOCATE_ON_REQUEST) or enqueued for
+    allocation at once if its time has come."""
     due = requested_time <= now
     task = Task.objects.create(
         site=site,
@@ -90,10 +93,12 @@ def task_create(
         **what,
         **extra,
     )
-    TaskStop.objects.bulk_create(task_stops_build(task, pickups, dropoffs))
+    stops = TaskStop.objects.bulk_create(task_stops_build(task, pickups, dropoffs))
     cause = Cause.SCHEDULE if extra.get("recurring") else Cause.REQUEST
     task_record(task, old="", at=now, cause=cause, user=requester)
-    if due:
+    if due and settings.ALLOCATE_ON_REQUEST:
+        task_allocate_created(task=task, stops=stops, now=now)
+    elif due:
         allocation_enqueue(task.pk)
     return task
 

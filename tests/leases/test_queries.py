@@ -26,13 +26,13 @@ def post_heartbeat(robot):
     return post
 
 
-# A plain heartbeat takes 6 (auth, savepoint, lock robot, update robot, read board, release
-# savepoint); a request adds 2 in boards (find requests seen before, insert the new one) and 4
-# here: lock the resource, read its live leases, insert the lease, insert its message.
-ACQUIRE_QUERIES = 12
+# A plain heartbeat takes 5 (savepoint, find and lock the robot, update it, read its board,
+# release savepoint); a request adds 2 in boards (find requests seen before, insert the new one)
+# and 4 here: lock the resource, read its live leases, insert the lease, insert its message.
+ACQUIRE_QUERIES = 11
 
 
-def test_it_grants_an_acquire_in_twelve_queries(post_heartbeat, django_assert_num_queries):
+def test_it_grants_an_acquire_in_eleven_queries(post_heartbeat, django_assert_num_queries):
     with django_assert_num_queries(ACQUIRE_QUERIES):
         messages = post_heartbeat(requests=[acquire("ELEV", to_floor="2F")])
 
@@ -52,5 +52,5 @@ def test_it_queues_an_acquire_in_as_many(post_heartbeat, site, django_assert_num
 def test_it_costs_a_heartbeat_without_resource_business_nothing_more(
     post_heartbeat, django_assert_num_queries
 ):
-    with django_assert_num_queries(6):
+    with django_assert_num_queries(5):
         post_heartbeat()

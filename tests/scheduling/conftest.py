@@ -6,7 +6,7 @@ import uuid
 from datetime import timedelta
 
 import pytest
-from django.test import Client
+from django.test import Client, override_settings
 from django.utils import timezone
 
 from boards.models import BoardMessage
@@ -65,19 +65,30 @@ def robot_ready(robot: Robot, *, at: str | None = None, battery=0.9, status="idl
     return robot
 
 
-def request(site, pickups=("1F-PHARM",), dropoffs=("2F-LAB",), *, user=None, **fields) -> Task:
-    """A delivery request through the service, as the API makes it."""
+def request(
+    site,
+    pickups=("1F-PHARM",),
+    dropoffs=("2F-LAB",),
+    *,
+    user=None,
+    allocate_now=False,
+    **fields,
+) -> Task:
+    """A delivery request through the service, as the API makes it. It is left due for the
+    worker's allocation (task_allocate), which tests drive, unless `allocate_now`
+    (settings.ALLOCATE_ON_REQUEST, on in production)."""
     stations = {wp.code: wp for wp in Waypoint.objects.filter(site=site)}
     fields.setdefault("sender", "Pharmacy")
     fields.setdefault("receiver", "Nurse Kim")
     fields.setdefault("contents", "Medication")
-    return task_request(
-        site=site,
-        requester=user,
-        pickups=[stations[code] for code in pickups],
-        dropoffs=[stations[code] for code in dropoffs],
-        **fields,
-    )
+    with override_settings(ALLOCATE_ON_REQUEST=allocate_now):
+        return task_request(
+            site=site,
+            requester=user,
+            pickups=[stations[code] for code in pickups],
+            dropoffs=[stations[code] for code in dropoffs],
+            **fields,
+        )
 
 
 def plans(reply: dict) -> list[dict]:

@@ -57,7 +57,17 @@ def test_it_creates_an_on_demand_task(api, site, staff, django_capture_on_commit
     assert [(h["old"], h["new"], h["cause"], h["user"]) for h in body["history"]] == [
         ("", "due", "request", staff.username)
     ]
-    assert len(callbacks) == 2  # the live push and the allocation message
+    # The live push; no robot is free, so it stays due for the due sweep (no Celery message).
+    assert len(callbacks) == 1
+
+
+def test_it_answers_a_task_already_given_to_a_free_robot(api, r1):
+    response = api("post", "tasks/", valid())
+
+    assert response.status_code == 201, response.content
+    body = response.json()
+    assert (body["status"], body["robot"]) == ("assigned", "R1")
+    assert [h["cause"] for h in body["history"]] == ["request", "allocation"]
 
 
 def test_it_schedules_a_task_requested_for_later(api, site):

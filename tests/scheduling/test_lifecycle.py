@@ -176,10 +176,10 @@ def test_a_heartbeat_with_a_task_event_needs_five_more_queries(r1, site, django_
     beater = Beater(r1)
     beater.ack_all(beater.beat())
 
-    # The heartbeat's own 8 (tests/boards/test_heartbeat_queries.py, with one event) + read the
+    # The heartbeat's own 7 (tests/boards/test_heartbeat_queries.py, with one event) + read the
     # task and its stops, mark the stop done, move the task, record it. A heartbeat without
     # task events or plan acks needs none more.
-    with django_assert_num_queries(13):
+    with django_assert_num_queries(12):
         beater.beat(events=[event("loaded", task.code, 0)])
-    with django_assert_num_queries(8):
+    with django_assert_num_queries(7):
         beater.beat(events=[event("arrived")])
