@@ -7,11 +7,12 @@ The thesis (Table 8.1-8.3) measured ~75 ms from a user's web request to the robo
 the command over a direct TCP connection, with 1 user and 1 device, 10/50/100 concurrent users,
 and 10/50/100 devices. Here, on the production stack (bench/stack.py: gunicorn, daphne, a Celery
 worker; PostgreSQL unless told otherwise): a "user" POSTs a task to /api/v1/tasks/ (the
-server allocates it in the Celery worker and posts the plan on the robot's board) and the
-latency runs from just before the POST until a heartbeat response hands the robot a plan
-carrying that task. Robots are robotsim RobotClients heartbeating at 1 Hz, without and with the
-push channel (a wake-up over the robot's websocket, then a heartbeat at once). They stay at
-their docks and report each task done at once, so the next run finds them empty.
+server allocates it in the request itself when no other allocation runs on the site, else in
+the Celery worker, and posts the plan on the robot's board) and the latency runs from just
+before the POST until a heartbeat response hands the robot a plan carrying that task. Robots
+are robotsim RobotClients heartbeating at 1 Hz, without and with the push channel (a wake-up
+over the robot's websocket, then a heartbeat at once). They stay at their docks and report
+each task done at once, so the next run finds them empty.
 
 Rows: 1 user and 1 robot; N users at once (N = 10, 50, 100) with N robots, each run N POSTs at
 the same instant (each needs a robot free to take it); N robots (10, 50, 100) heartbeating while
@@ -158,6 +159,8 @@ def _prepare(users: int, robots: int) -> tuple[list[str], list[tuple[str, str, s
 
 
 def _print_header(stack: Stack, url: str, runs: int, argv) -> None:
+    from django.conf import settings
+
     now = datetime.datetime.now().astimezone().isoformat(timespec="seconds")
     command = shlex.join(["python", "bench/latency.py", *(argv if argv else sys.argv[1:])])
     database = "PostgreSQL" if url.startswith("postgres") else "SQLite"
@@ -165,6 +168,10 @@ def _print_header(stack: Stack, url: str, runs: int, argv) -> None:
     print(f"command: {command}")
     print(f"Python {platform.python_version()}, {os.cpu_count()} CPUs, {platform.platform()}")
     print(f"server: {stack.description}; {database}")
+    print(
+        f"allocation: ALLOCATION_POLICY={settings.ALLOCATION_POLICY}, "
+        f"ALLOCATE_ON_REQUEST={'on' if settings.ALLOCATE_ON_REQUEST else 'off'}"
+    )
     print("robots and users: threads of this process, on the same machine as the server")
     print(f"{runs} runs per row; heartbeat interval 1 s\n")
 
@@ -347,8 +354,10 @@ def _print_table(outcomes: list[Outcome]) -> None:
         )
     print(
         "\nms. mean/p50/p99: from just before the POST to the heartbeat response carrying the\n"
-        "plan. ->posted: mean from the POST to the plan posted on the board (request, commit,\n"
-        "Celery, allocation); ->robot: mean from then to the robot holding it. Without push the\n"
+        "plan. ->posted: mean from the POST to the plan posted on the board (the request and the\n"
+        "allocation, in the request or, if another runs, in the worker after a queue wait);\n"
+        "->robot: mean from then to the robot holding it (with push, the wake is sent as the\n"
+        "plan is posted and the woken heartbeat waits for the commit). Without push the\n"
         "robot sees the plan at its next heartbeat, on average half an interval (~500 ms of the\n"
         "1 s interval) later; with push it heartbeats as soon as it is woken, and the interval\n"
         "plays no part. thesis: the mean of the thesis' Table 8.1, 8.2 or 8.3 (direct TCP)."

@@ -1,4 +1,5 @@
-"""Live pushes over Channels, always sent after the transaction that caused them commits.
+"""Live pushes over Channels, sent after the transaction that caused them commits (except a
+robot's wake-up from a transaction holding the robot's row lock: wake_now).
 
 Two audiences: the pages watching a site (group "site-<id>", see the UI consumers) and a
 robot's optional push channel (group "robot-<code>", protocol v1 "Push channel"), which only
@@ -56,10 +57,10 @@ def wake_on_commit(*, robot_code: str, message_id: str) -> None:
 
 
 def wake_now(*, robot_code: str, message_id: str) -> None:
-    """wake_on_commit, but before the commit: only for a caller holding the robot's row lock
-    (robots.services.robot_lock), which the heartbeat the wake causes waits for, then finding
-    message_id committed. The robot's trip to the server overlaps the rest of the transaction;
-    if it rolls back, the robot has heartbeated once for nothing."""
+    """wake_on_commit, but at once: only for a caller holding the robot's row lock
+    (robots.services.robot_lock). The heartbeat the wake causes waits for that lock, so it finds
+    message_id committed, and the robot's trip to the server overlaps the rest of the
+    transaction. If that rolls back, the robot has heartbeated once for nothing."""
     try:
         _send(robot_group(robot_code), {"type": "robot.wake", "message": message_id})
     except Exception:

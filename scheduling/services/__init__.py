@@ -10,12 +10,13 @@ Lifecycle of a task (every change recorded as a TaskTransition with its cause):
     scheduled, due, assigned, acknowledged --cancel--> cancelled
     picked_up (or partly loaded) --cancel--> picked_up with a return trip --unloaded--> cancelled
 
-Lock order (no deadlocks): the site's AllocationLock row, taken only by allocation and first;
-then at most one robot row (robots.services.robot_lock) per transaction. Everything but
-allocation takes only the robot's lock (heartbeats and presence changes already hold it);
-when such code needs a task allocated again, it makes the task due and enqueues allocation on
-commit, and the due sweep finds it anyway if that message is lost. Tasks with a robot are
-changed only under that robot's lock; tasks without one only by conditional updates.
+Lock order (no deadlocks): the site's AllocationLock row, taken only by allocation and first
+(a request allocating the task it has just inserted takes it without waiting, or leaves the
+task to the worker); then at most one robot row (robots.services.robot_lock) per transaction.
+Everything but allocation takes only the robot's lock (heartbeats and presence changes already
+hold it); when such code needs a task allocated again, it makes the task due and enqueues
+allocation on commit, and the due sweep finds it anyway if that message is lost. Tasks with a
+robot are changed only under that robot's lock; tasks without one only by conditional updates.
 """
 
 from scheduling.services.allocation import due_sweep, task_allocate

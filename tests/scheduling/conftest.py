@@ -12,6 +12,7 @@ from django.utils import timezone
 from boards.models import BoardMessage
 from hospital_delivery.celery import app as celery_app
 from robots.models import Robot, Waypoint
+from scheduling import tasks as celery_tasks
 from scheduling.models import Task
 from scheduling.services import task_request
 from tests import factories, servers
@@ -30,6 +31,14 @@ def celery_sink_queue():
     yield queue
     celery_app.conf.task_default_queue = previous
     servers.celery_queue_delete(celery_app, queue)
+
+
+@pytest.fixture
+def enqueued(monkeypatch):
+    """Task ids handed to Celery for allocation (the message itself is not sent)."""
+    sent = []
+    monkeypatch.setattr(celery_tasks.allocate_task, "delay", sent.append)
+    return sent
 
 
 def new_event_id() -> str:

@@ -14,21 +14,12 @@ from django.db import connection, transaction
 from boards.events import robot_group
 from boards.models import BoardMessage
 from hospital_delivery.asgi import application
-from scheduling import tasks as celery_tasks
 from scheduling.models import AllocationLock
 from scheduling.services.allocation import NO_ROBOT
 from tests.scheduling.conftest import pending_plans, plans, request, robot_ready, status
 from tests.servers import poll
 
 AT_DOCK = {"floor": "1F", "waypoint": "1F-DOCK-1"}
-
-
-@pytest.fixture
-def enqueued(monkeypatch):
-    """Task ids handed to Celery for allocation (the message itself is not sent)."""
-    sent = []
-    monkeypatch.setattr(celery_tasks.allocate_task, "delay", sent.append)
-    return sent
 
 
 def test_the_request_commits_with_its_robot_chosen_and_the_plan_posted(

@@ -2,20 +2,10 @@
 
 from datetime import timedelta
 
-import pytest
-
 from robots.models import Alert, Robot
 from robots.services import presence_sweep
-from scheduling import tasks as celery_tasks
 from scheduling.services import task_allocate
 from tests.scheduling.conftest import Beater, event, pending_plans, request, robot_ready, status
-
-
-@pytest.fixture
-def enqueued(monkeypatch):
-    sent = []
-    monkeypatch.setattr(celery_tasks.allocate_task, "delay", sent.append)
-    return sent
 
 
 def held_by(robot, site, **fields):

@@ -7,18 +7,9 @@ import pytest
 from django.db import connection
 
 from boards.models import BoardMessage
-from scheduling import tasks as celery_tasks
 from scheduling.models import Task
 from scheduling.services import ack_timeout_sweep, task_allocate
 from tests.scheduling.conftest import Beater, pending_plans, request, route, status
-
-
-@pytest.fixture
-def enqueued(monkeypatch):
-    """Task ids handed to Celery for allocation (the message itself is not sent)."""
-    sent = []
-    monkeypatch.setattr(celery_tasks.allocate_task, "delay", sent.append)
-    return sent
 
 
 def assigned(site, robot, **fields) -> Task:
