@@ -17,7 +17,8 @@ the whole server in-process on a fresh SQLite database: robots (robotsim, the sa
 `manage.py simulate_fleet`) heartbeat through Django's test client (the full HTTP stack without
 sockets), requests go through the public task API the same way, time is a virtual clock
 (time_machine drives timezone.now()), and each simulated second the sweeps Celery beat would run
-are called directly while allocation runs eagerly on commit. It measures the policy, not the
+are called directly; a request is allocated in the request (settings.ALLOCATE_ON_REQUEST) and
+anything enqueued for the worker runs eagerly on commit. It measures the policy, not the
 broker. No network losses: they would cost every policy alike.
 """
 
@@ -155,7 +156,7 @@ def _print_header(settings: Settings, seed: int, argv) -> None:
     print(
         "Time-accelerated and deterministic: the server in-process (Django test client, SQLite),\n"
         "a virtual clock (time_machine), the due sweep called each simulated second (the others\n"
-        "every 5 s), allocation eager on commit.\n"
+        "every 5 s), allocation in the request or eager on commit.\n"
         "Same request stream, robots and staff delays for every policy; no network losses.\n"
     )
 
