@@ -169,7 +169,8 @@ class Stack:
     def _wait_worker(self, timeout: float = 60.0) -> None:
         from celery import Celery
 
-        pinger = Celery(broker=self.redis_url)
+        # Not the current app: in a test process, tasks would be sent through this one.
+        pinger = Celery(broker=self.redis_url, set_as_current=False)
         destination = [f"{self.queue}@{socket.gethostname()}"]
         try:
             self._wait(

@@ -38,8 +38,11 @@ def test_the_request_commits_with_its_robot_chosen_and_the_plan_posted(
     assert enqueued == []  # nothing left for the worker
 
 
-def test_without_a_robot_it_stays_due_for_the_due_sweep(site, enqueued):
-    task = request(site, allocate_now=True)
+def test_without_a_robot_it_stays_due_for_the_due_sweep(
+    site, enqueued, django_capture_on_commit_callbacks
+):
+    with django_capture_on_commit_callbacks(execute=True):
+        task = request(site, allocate_now=True)
 
     task.refresh_from_db()
     assert (task.status, task.waiting_reason) == ("due", NO_ROBOT)
