@@ -3,7 +3,6 @@ README: gunicorn (pages, API, heartbeats) and daphne (websockets) as subprocesse
 database. Never `playwright install`: CHROMIUM_PATH (default /usr/bin/chromium; ./scripts/test.sh
 installs Debian's package when missing)."""
 
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import pytest
@@ -48,20 +47,6 @@ def orm_beside_playwright(monkeypatch):
     as if they came from async code. They are plain blocking calls made while that loop waits
     (as Playwright's documentation for Django tests advises)."""
     monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
-
-
-def in_thread(function, *args, **kwargs):
-    """Call a service in a thread of its own, so its pushes after commit (async_to_sync, which
-    refuses a thread with a running loop) reach the pages."""
-
-    def call():
-        try:
-            return function(*args, **kwargs)
-        finally:
-            connections.close_all()
-
-    with ThreadPoolExecutor(max_workers=1) as pool:
-        return pool.submit(call).result()
 
 
 @pytest.fixture

@@ -8,7 +8,7 @@ from playwright.sync_api import expect
 
 from scheduling.models import Task
 from tests import factories
-from tests.browser.conftest import TABLET, in_thread
+from tests.browser.conftest import TABLET
 from tests.scheduling.conftest import request
 
 pytestmark = pytest.mark.browser
@@ -86,7 +86,7 @@ def test_it_adds_drop_offs_for_a_one_to_many_delivery(open_page, nurse):
 
 
 def test_it_cancels_a_delivery_from_the_schedule_table(open_page, nurse, site):
-    task = in_thread(request, site, user=nurse, contents="Insulin")
+    task = request(site, user=nurse, contents="Insulin")
     page = open_page(nurse, "/")
 
     row = schedule_row(page, "Insulin")
@@ -103,14 +103,14 @@ def test_it_updates_the_schedule_live_when_someone_else_orders(open_page, nurse,
     page = open_page(nurse, "/")
     page.evaluate("window.notReloaded = true")
 
-    in_thread(request, site, contents="Sterile gauze")
+    request(site, contents="Sterile gauze")
 
     expect(schedule_row(page, "Sterile gauze")).to_contain_text("Due, waiting for a robot")
     assert page.evaluate("window.notReloaded") is True
 
 
 def test_it_opens_a_tasks_history_from_its_row(open_page, nurse, site):
-    task = in_thread(request, site, user=nurse, contents="Insulin")
+    task = request(site, user=nurse, contents="Insulin")
     page = open_page(nurse, "/")
 
     schedule_row(page, "Insulin").get_by_text("Insulin").click()  # anywhere on its row

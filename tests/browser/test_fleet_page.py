@@ -5,7 +5,6 @@ from playwright.sync_api import expect
 
 from robots.alerts import alert_raise
 from robots.models import AlertKind
-from tests.browser.conftest import in_thread
 from tests.conftest import RobotHttp
 
 pytestmark = pytest.mark.browser
@@ -88,8 +87,7 @@ def test_it_shows_alerts_live_until_an_operator_acknowledges_them(
     nurses_page = open_page(nurse, "/")
     operators_page = open_page(operator, "/fleet/")
 
-    in_thread(
-        alert_raise,
+    alert_raise(
         site_id=site.pk,
         kind=AlertKind.OFFLINE_WITH_LOAD,
         key="offline-with-load:R1",
