@@ -56,6 +56,16 @@ def robot_http(live_server, robot):
 
 
 @pytest.fixture
+def nurse(db):
+    return factories.user_create("kim", "nurse", first_name="Kim")
+
+
+@pytest.fixture
+def operator(db):
+    return factories.user_create("park", "operator")
+
+
+@pytest.fixture
 def staff(db):
     return factories.staff_create()
 

@@ -11,7 +11,7 @@ from django.db import connections
 from django.test import Client
 from playwright.sync_api import expect, sync_playwright
 
-from tests import factories, servers
+from tests import servers
 
 DESKTOP = {"width": 1280, "height": 900}
 TABLET = {"width": 768, "height": 1024}
@@ -21,16 +21,6 @@ TABLET = {"width": 768, "height": 1024}
 class Servers:
     http: str
     ws: servers.Daphne
-
-
-@pytest.fixture
-def nurse(site):
-    return factories.user_create("kim", "nurse")
-
-
-@pytest.fixture
-def operator(site):
-    return factories.user_create("park", "operator")
 
 
 @pytest.fixture(scope="session")
@@ -61,9 +51,9 @@ def chromium(transactional_db):
 
 
 @pytest.fixture
-def open_page(chromium, page_servers):
+def open_page(chromium, page_servers, site):
     """open_page(user, path, viewport=DESKTOP): a new browser context logged in as `user`
-    (None: logged out) showing `path`; with a site, once its live connection is up."""
+    (None: logged out) showing `path` of the test site, once its live connection is up."""
 
     def open_(user, path: str, *, viewport=DESKTOP, live=True):
         context = chromium.new_context(viewport=viewport, base_url=page_servers.http)

@@ -13,18 +13,8 @@ def celery_sink_queue():
 
 
 @pytest.fixture
-def nurse(db):
-    return factories.user_create("kim", "nurse", first_name="Kim")
-
-
-@pytest.fixture
 def other_nurse(db):
     return factories.user_create("lee", "nurse")
-
-
-@pytest.fixture
-def operator(db):
-    return factories.user_create("park", "operator")
 
 
 @pytest.fixture

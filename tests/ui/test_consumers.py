@@ -136,8 +136,7 @@ def test_it_forwards_only_its_own_sites_events(site, robot):
     assert run(scenario)
 
 
-def test_it_closes_a_sessions_sockets_when_that_session_logs_out(site):
-    nurse = factories.user_create("kim", "nurse")
+def test_it_closes_a_sessions_sockets_when_that_session_logs_out(site, nurse):
     leaving, staying = Client(), Client()
     leaving.force_login(nurse)
     staying.force_login(nurse)
