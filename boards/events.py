@@ -52,8 +52,7 @@ def publish_on_commit(*, site_id: int, kind: str, data: dict) -> None:
 
 def wake_on_commit(*, robot_code: str, message_id: str) -> None:
     """Ask a robot with an open push channel to heartbeat now (it will find message_id)."""
-    message = {"type": "robot.wake", "message": message_id}
-    transaction.on_commit(lambda: _send(robot_group(robot_code), message), robust=True)
+    transaction.on_commit(lambda: _wake(robot_code, message_id), robust=True)
 
 
 def wake_now(*, robot_code: str, message_id: str) -> None:
@@ -62,9 +61,13 @@ def wake_now(*, robot_code: str, message_id: str) -> None:
     message_id committed, and the robot's trip to the server overlaps the rest of the
     transaction. If that rolls back, the robot has heartbeated once for nothing."""
     try:
-        _send(robot_group(robot_code), {"type": "robot.wake", "message": message_id})
+        _wake(robot_code, message_id)
     except Exception:
         logger.exception("waking %s failed", robot_code)
+
+
+def _wake(robot_code: str, message_id: str) -> None:
+    _send(robot_group(robot_code), {"type": "robot.wake", "message": message_id})
 
 
 def _send(group: str, message: dict) -> None:

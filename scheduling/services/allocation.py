@@ -131,11 +131,12 @@ def _allocation_lock(site_id: int, *, wait: bool = True) -> Site | None:
     Without `wait`, None if another transaction holds it.
     """
     locked = AllocationLock.objects.select_for_update(of=("self",), skip_locked=not wait)
-    lock = locked.select_related("site").filter(site_id=site_id).first()
+    locked = locked.select_related("site").filter(site_id=site_id)
+    lock = locked.first()
     if lock is None:  # held by another transaction, or the site's first allocation
         _, created = AllocationLock.objects.get_or_create(site_id=site_id)
         if created or wait:
-            lock = locked.select_related("site").get(site_id=site_id)
+            lock = locked.get()
     return lock.site if lock else None
 
 
