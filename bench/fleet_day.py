@@ -259,10 +259,10 @@ class _Day:
 
         from bench.inprocess import SERVER_URL, InProcessTaskApi, InProcessTransport
         from hospital_delivery.models import ApiToken
-        from robots.graph import Router, site_map_from_file
         from robots.models import Robot
+        from robots.router import Router, site_map_from_file
         from robots.services import robot_token_issue
-        from robots.sites import site_file_read, site_load
+        from robots.sitefile import site_file_read, site_load
         from robotsim.client import RobotClient
         from robotsim.simulator import ManualClock, RobotLoop, SimRobot
         from robotsim.traffic import Stations, day_requests
@@ -306,7 +306,7 @@ class _Day:
         self.heartbeats = 0
 
     def run(self) -> None:
-        from robots.leases import lease_sweep
+        from resources.leases import lease_sweep
         from robots.services import presence_sweep
         from scheduling.services import ack_timeout_sweep, due_sweep
 

@@ -108,9 +108,9 @@ def _robots(database_url: str, count: int) -> list[tuple[str, str]]:
     import django
 
     django.setup()
-    from hospital_delivery.tokens import token_new
+    from core.tokens import token_new
     from robots.models import Robot
-    from robots.sites import site_file_read, site_load
+    from robots.sitefile import site_file_read, site_load
 
     site = site_load(data={**site_file_read(SITE_FILE), "robots": []})
     docks = list(site.waypoints.filter(kind="dock").order_by("code"))

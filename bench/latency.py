@@ -145,7 +145,7 @@ def _prepare(users: int, robots: int) -> tuple[list[str], list[tuple[str, str, s
     from hospital_delivery.models import ApiToken
     from robots.models import Robot
     from robots.services import robot_token_issue
-    from robots.sites import site_file_read, site_load
+    from robots.sitefile import site_file_read, site_load
 
     site = site_load(data=site_file_read(SITE_FILE))
     docks = list(site.waypoints.filter(kind="dock").order_by("code"))

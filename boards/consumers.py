@@ -1,8 +1,6 @@
-"""Websocket consumers: the robot push channel (protocol v1, "Push channel": wake-ups only,
-never board contents) and the pages' live site events.
-
-Consumers only authenticate, join groups and forward what services published after commit
-(boards.events); they never query beyond authentication.
+"""The robots' push channel (protocol v1, "Push channel"): a robot-opened websocket that only
+ever carries wake-ups (boards/push.py), never board contents. The consumer authenticates the
+robot, joins its group and forwards; it never queries beyond authentication.
 """
 
 from urllib.parse import parse_qs
@@ -10,15 +8,12 @@ from urllib.parse import parse_qs
 from channels.db import database_sync_to_async
 from channels.generic.websocket import AsyncJsonWebsocketConsumer
 
-from boards.events import robot_group, session_group, site_group
-from hospital_delivery.access import is_member
-from hospital_delivery.tokens import bearer_token
-from robots.models import Site
+from boards.push import robot_group
+from core.tokens import bearer_token
 from robots.services import robot_authenticate
 
 CLOSE_UNAUTHORIZED = 4401
 CLOSE_FORBIDDEN = 4403
-CLOSE_NOT_FOUND = 4404
 
 
 def token_of(scope) -> str | None:
@@ -55,53 +50,3 @@ class RobotPushConsumer(AsyncJsonWebsocketConsumer):
 
     async def robot_wake(self, event):
         await self.send_json({"type": "wake", "message": event["message"]})
-
-
-class SiteConsumer(AsyncJsonWebsocketConsumer):
-    """A page watching one site: every `site.event` of the site as {"kind": ..., "data": ...}.
-
-    Needs a logged-in user (session cookie, AuthMiddlewareStack) in the nurse or operator group
-    (or staff), and an allowed Origin (AllowedHostsOriginValidator, hospital_delivery.routing).
-    Refusals accept first and then close, so the close code reaches the browser: 4401 not
-    logged in, 4403 not allowed, 4404 no such site. The group is joined before the socket is
-    accepted, so a page that re-reads the state once open misses no event in between. When its
-    login session logs out, the socket closes with 4401 (other sessions of the user stay open).
-    """
-
-    async def connect(self):
-        user = self.scope.get("user")
-        code = self.scope["url_route"]["kwargs"]["site"]
-        refusal, site_id = await database_sync_to_async(_site_access)(user, code)
-        if refusal:
-            await self.accept()
-            await self.close(code=refusal)
-            return
-        self.groups = [site_group(site_id)]
-        session_key = self.scope["session"].session_key
-        if session_key:
-            self.groups.append(session_group(session_key))
-        for group in self.groups:
-            await self.channel_layer.group_add(group, self.channel_name)
-        await self.accept()  # the base class leaves self.groups when the socket closes
-
-    async def session_ended(self, event):
-        """Its session logged out (boards.receivers): the page must log in again."""
-        await self.close(code=CLOSE_UNAUTHORIZED)
-
-    async def receive_json(self, content, **kwargs):
-        """Pages only listen: everything they do goes through HTTP."""
-
-    async def site_event(self, event):
-        await self.send_json({"kind": event["kind"], "data": event["data"]})
-
-
-def _site_access(user, code: str) -> tuple[int | None, int | None]:
-    """(close code, None) if refused, else (None, the site's id)."""
-    if user is None or not user.is_authenticated:
-        return CLOSE_UNAUTHORIZED, None
-    if not is_member(user):
-        return CLOSE_FORBIDDEN, None
-    site_id = Site.objects.filter(code=code).values_list("pk", flat=True).first()
-    if site_id is None:
-        return CLOSE_NOT_FOUND, None
-    return None, site_id

@@ -66,9 +66,6 @@ class BoardMessage(models.Model):
     def is_pending(self) -> bool:
         return self.acked_at is None and self.withdrawn_at is None
 
-    def as_wire(self) -> dict:
-        return {"id": self.public_id, "type": self.type, **self.body}
-
 
 class RobotEvent(models.Model):
     """An event a robot reported, applied once: the history behind tasks and leases."""

@@ -4,7 +4,7 @@ from drf_spectacular.utils import PolymorphicProxySerializer
 from rest_framework import serializers
 
 from boards.choices import RESOURCE_EVENT_TYPES, EventType, MessageType, RequestType
-from hospital_delivery.fields import (
+from core.fields import (
     StrictCharField,
     StrictDateTimeField,
     StrictFloatField,
@@ -127,7 +127,7 @@ class HeartbeatSerializer(serializers.Serializer):
     requests = AcquireReleaseSerializer(many=True, required=False, max_length=100, default=list)
 
 
-# Response documentation. The view sends BoardMessage.as_wire() as it is; these only describe it.
+# Response documentation. The view sends boards.protocol.message_wire(); these only describe it.
 
 
 class PlanStopSerializer(serializers.Serializer):
@@ -194,8 +194,3 @@ class HeartbeatResponseSerializer(serializers.Serializer):
     server_time = serializers.DateTimeField()
     heartbeat_interval = serializers.FloatField(help_text="seconds until the next heartbeat")
     messages = BoardMessageSerializer
-
-
-class ErrorSerializer(serializers.Serializer):
-    error = serializers.CharField(help_text="short code: invalid, invalid_json, unauthorized, …")
-    detail = serializers.JSONField(help_text="for field errors, {field path: [messages]}")

@@ -11,9 +11,9 @@ from django.db import transaction
 from django.db.models import QuerySet
 from django.utils import timezone
 
-from boards.events import wake_now, wake_on_commit
+from boards.hooks import heartbeat_applied
 from boards.models import BoardMessage, RobotEvent, RobotRequest
-from boards.signals import heartbeat_applied
+from boards.push import wake_now, wake_on_commit
 from robots.models import Robot
 from robots.services import robot_heartbeat_record
 
@@ -82,7 +82,7 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
         request_index=_index_of_each_id(heartbeat["requests"]),
         event_index=_index_of_each_id(heartbeat["events"]),
     )
-    heartbeat_applied.send(sender=AppliedHeartbeat, applied=applied)
+    heartbeat_applied(applied=applied)
     return HeartbeatReply(
         server_time=now,
         heartbeat_interval=robot.site.heartbeat_interval,
@@ -187,7 +187,7 @@ def board_post(
     With supersede, pending messages of the same robot and key are withdrawn first (a newer
     plan replaces an unacked older one). A robot with an open push channel is woken once the
     transaction commits, or at once if the caller holds the robot's row lock (`robot_locked`;
-    boards.events.wake_now).
+    boards.push.wake_now).
     """
     now = timezone.now()
     if supersede:

@@ -7,11 +7,12 @@ from rest_framework import exceptions, status
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
-from boards.serializers import ErrorSerializer, HeartbeatResponseSerializer, HeartbeatSerializer
+from boards.protocol import heartbeat_reply_wire
+from boards.serializers import HeartbeatResponseSerializer, HeartbeatSerializer
 from boards.services import HeartbeatRejected, heartbeat_apply
-from boards.wire import heartbeat_reply_wire
+from core.errors import ErrorSerializer
 from robots.authentication import IsRobotInUrl, RobotTokenLockingAuthentication
-from robots.sitemap import site_map
+from robots.mapcache import site_map
 
 
 class PayloadTooLarge(exceptions.APIException):

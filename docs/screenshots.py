@@ -127,7 +127,7 @@ def scene(http: str) -> None:
 
     from robots.models import Robot as RobotRow
     from robots.models import Site
-    from robots.operator import robot_action
+    from scheduling.services import robot_action
 
     site = Site.objects.get(code="eulji")
     nurse = User.objects.create_user("minji", password=PASSWORD, first_name="Minji")

@@ -6,4 +6,6 @@ class HospitalDeliveryConfig(AppConfig):
     verbose_name = "Accounts and API tokens"
 
     def ready(self):
-        from hospital_delivery import schema  # noqa: F401  (registers OpenAPI extensions)
+        from hospital_delivery import extensions, schema  # noqa: F401  (OpenAPI extensions)
+
+        extensions.connect()

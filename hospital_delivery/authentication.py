@@ -1,7 +1,7 @@
 from rest_framework import authentication, exceptions
 
+from core.tokens import bearer_token
 from hospital_delivery.models import ApiToken
-from hospital_delivery.tokens import bearer_token
 
 
 class ApiTokenAuthentication(authentication.BaseAuthentication):

@@ -2,7 +2,7 @@ from django.conf import settings
 from django.db import models, transaction
 from django.utils import timezone
 
-from hospital_delivery.tokens import token_hash, token_new
+from core.tokens import token_hash, token_new
 
 
 class ApiTokenQuerySet(models.QuerySet):

@@ -8,7 +8,8 @@ from channels.routing import URLRouter
 from channels.security.websocket import AllowedHostsOriginValidator
 from django.urls import path
 
-from boards.consumers import RobotPushConsumer, SiteConsumer
+from boards.consumers import RobotPushConsumer
+from ui.live.consumers import SiteConsumer
 
 robot_websocket_urlpatterns = [
     path("ws/robots/<str:robot>", RobotPushConsumer.as_asgi()),

@@ -33,10 +33,13 @@ INSTALLED_APPS = [
     "rest_framework",
     "drf_spectacular",
     "channels",
-    "hospital_delivery",
+    # Components, lowest layer first (pyproject.toml, [tool.importlinter]).
     "robots",
     "boards",
+    "resources",
     "scheduling",
+    "ui",
+    "hospital_delivery",
 ]
 
 MIDDLEWARE = [
@@ -64,7 +67,7 @@ TEMPLATES = [
                 "django.template.context_processors.request",
                 "django.contrib.auth.context_processors.auth",
                 "django.contrib.messages.context_processors.messages",
-                "hospital_delivery.context_processors.pages",
+                "ui.context_processors.pages",
             ],
         },
     },
@@ -135,7 +138,7 @@ REST_FRAMEWORK = {
     ],
     "DEFAULT_PERMISSION_CLASSES": ["rest_framework.permissions.IsAdminUser"],
     "DEFAULT_SCHEMA_CLASS": "drf_spectacular.openapi.AutoSchema",
-    "EXCEPTION_HANDLER": "hospital_delivery.errors.exception_handler",
+    "EXCEPTION_HANDLER": "core.errors.exception_handler",
     "DEFAULT_PAGINATION_CLASS": "rest_framework.pagination.LimitOffsetPagination",
     "PAGE_SIZE": 100,
 }
@@ -198,7 +201,7 @@ def _sweep(task: str, every: float) -> dict:
 
 CELERY_BEAT_SCHEDULE = {
     "robots-presence-sweep": _sweep("robots.tasks.presence_sweep", PRESENCE_SWEEP_SECONDS),
-    "robots-lease-sweep": _sweep("robots.tasks.lease_sweep", SWEEP_SECONDS),
+    "resources-lease-sweep": _sweep("resources.tasks.lease_sweep", SWEEP_SECONDS),
     "scheduling-due-sweep": _sweep("scheduling.tasks.due_sweep", SWEEP_SECONDS),
     "scheduling-ack-timeout-sweep": _sweep("scheduling.tasks.ack_timeout_sweep", SWEEP_SECONDS),
     "scheduling-recurring-sweep": _sweep("scheduling.tasks.recurring_sweep", 30),

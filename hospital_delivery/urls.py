@@ -3,8 +3,6 @@ from django.contrib.auth import views as auth_views
 from django.urls import include, path
 from drf_spectacular.views import SpectacularAPIView, SpectacularSwaggerView
 
-from hospital_delivery import live
-
 urlpatterns = [
     path("admin/", admin.site.urls),
     path("api/v1/", include("boards.urls")),
@@ -12,10 +10,8 @@ urlpatterns = [
     path("api/v1/", include("scheduling.urls")),
     path("api/schema/", SpectacularAPIView.as_view(), name="schema"),
     path("api/docs/", SpectacularSwaggerView.as_view(url_name="schema"), name="api-docs"),
-    # Pages (nurses and operators; see hospital_delivery/access.py)
+    # Pages for nurses and operators (ui/), and their login
     path("accounts/login/", auth_views.LoginView.as_view(), name="login"),
     path("accounts/logout/", auth_views.LogoutView.as_view(), name="logout"),
-    path("live/<str:site>/state.json", live.state, name="live-state"),
-    path("", include("scheduling.page_urls")),
-    path("", include("robots.page_urls")),
+    path("", include("ui.urls")),
 ]

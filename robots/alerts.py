@@ -3,7 +3,7 @@
 from django.db import IntegrityError, transaction
 from django.utils import timezone
 
-from boards.events import publish_on_commit
+from core import changes
 from robots.models import Alert
 
 
@@ -34,7 +34,7 @@ def alert_raise(
             )
     except IntegrityError:  # raised concurrently by another process
         return Alert.objects.open().get(key=key)
-    publish_on_commit(site_id=site_id, kind="alert", data=alert_wire(alert))
+    changes.changed(kind=changes.ALERT, site_id=site_id, subject=alert)
     return alert
 
 
@@ -46,16 +46,6 @@ def alert_acknowledge(*, alert: Alert, user) -> bool:
         .update(acknowledged_at=timezone.now(), acknowledged_by=user)
     )
     if acknowledged:
-        publish_on_commit(site_id=alert.site_id, kind="alert_acknowledged", data={"id": alert.pk})
+        kind = changes.ALERT_ACKNOWLEDGED
+        changes.changed(kind=kind, site_id=alert.site_id, subject=alert)
     return bool(acknowledged)
-
-
-def alert_wire(alert: Alert) -> dict:
-    return {
-        "id": alert.pk,
-        "kind": alert.kind,
-        "message": alert.message,
-        "robot": alert.robot.code if alert.robot else None,
-        "task": alert.task or None,
-        "raised_at": alert.raised_at.isoformat(),
-    }

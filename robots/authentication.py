@@ -1,7 +1,7 @@
 from django.contrib.auth.models import AnonymousUser
 from rest_framework import authentication, exceptions, permissions
 
-from hospital_delivery.tokens import bearer_token
+from core.tokens import bearer_token
 from robots.services import robot_authenticate
 
 

@@ -3,8 +3,8 @@
 A heartbeat stores when the robot will become unreachable and offline; the sweep flips only
 rows whose deadline has passed, each flip claimed by a conditional UPDATE and recorded.
 
-Live pages get a "robot" event (robots.wire) after commit whenever a heartbeat or the sweep
-changes what they show of a robot; built from the loaded row and the cached map, no query.
+Whenever a heartbeat or the sweep changes what people see of a robot, it is reported to the
+live pages (core.changes): at most once per heartbeat, and no query.
 """
 
 from datetime import datetime
@@ -13,13 +13,16 @@ from django.db import transaction
 from django.db.models import Q, QuerySet
 from django.utils import timezone
 
-from boards.events import publish_on_commit
-from hospital_delivery.tokens import token_new
+from core import changes
+from core.tokens import token_new
 from robots.choices import Presence
+from robots.hooks import presence_changed
 from robots.models import PresenceChange, Robot, RobotBoot, Site
 from robots.selectors import available_robots
-from robots.signals import presence_changed
-from robots.wire import last_seen_refresh_due, robot_visible, robot_wire
+
+# A robot whose visible state does not change is still reported this often (on its next
+# heartbeat after that), so the pages' "last seen" never lags by more than this.
+LAST_SEEN_REFRESH_SECONDS = 10
 
 
 def robot_authenticate(*, token: str, lock: bool = False) -> Robot | None:
@@ -86,11 +89,36 @@ def robot_heartbeat_record(
 
 
 def robot_publish(*, robot: Robot) -> None:
-    """Tell the site's live pages the robot's state as it is now, once the transaction commits.
+    """Report the robot's state as it is now to the live pages (core.changes).
 
     No query: robot.site must be loaded (robot_lock and the sweep load it).
     """
-    publish_on_commit(site_id=robot.site_id, kind="robot", data=robot_wire(robot))
+    changes.changed(kind=changes.ROBOT, site_id=robot.site_id, subject=robot)
+
+
+def robot_visible(robot: Robot) -> tuple:
+    """What the pages show of a robot: a change of any of it is worth reporting."""
+    battery = None if robot.battery is None else round(robot.battery * 100)
+    return (
+        robot.presence,
+        robot.status,
+        robot.floor_id,
+        robot.waypoint_id,
+        None if robot.x is None else round(robot.x, 2),
+        None if robot.y is None else round(robot.y, 2),
+        battery,
+        robot.load,
+        tuple(robot.errors or ()),
+        robot.paused_by_operator,
+    )
+
+
+def last_seen_refresh_due(previous: datetime | None, now: datetime) -> bool:
+    """Whether `now` starts a new refresh period since the robot was last seen."""
+    if previous is None:
+        return True
+    period = LAST_SEEN_REFRESH_SECONDS
+    return int(previous.timestamp() // period) != int(now.timestamp() // period)
 
 
 def _heartbeat_is_newest(robot: Robot, boot_id: str, seq: int, now: datetime) -> bool:
@@ -129,4 +157,4 @@ def presence_sweep_step(*, robot: Robot, now: datetime) -> int:
 
 def _presence_record(robot: Robot, *, old: str, new: str, at: datetime, cause: str) -> None:
     PresenceChange.objects.create(robot=robot, at=at, old=old, new=new, cause=cause)
-    presence_changed.send(sender=Robot, robot=robot, old=old, new=new, at=at)
+    presence_changed(robot=robot, old=old, new=new, at=at)

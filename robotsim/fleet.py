@@ -17,7 +17,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from robots.graph import Router, site_map_from_file
+from robots.router import Router, site_map_from_file
 from robotsim.client import RobotClient, listen_for_wakes
 from robotsim.network import LossyTransport, NetworkModel, NetworkStats
 from robotsim.simulator import Behaviour, RealClock, RobotLoop, SimRobot

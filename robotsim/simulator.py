@@ -1,6 +1,6 @@
 """One simulated delivery robot: it follows its plan on its own map and talks only protocol v1.
 
-What the robot knows: its map (the site file, as robots.graph.SiteMap), its dock, and what its
+What the robot knows: its map (the site file, as robots.router.SiteMap), its dock, and what its
 RobotClient receives. It never reads the server's database.
 
 Its behaviour, as in the source paper (sections 2.2, 3.2 and 4.3):
@@ -36,7 +36,7 @@ from collections.abc import Callable, Generator
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 
-from robots.graph import MapEdge, Router, SiteMap
+from robots.router import MapEdge, Router, SiteMap
 from robotsim.client import RefusedError, RobotClient
 
 logger = logging.getLogger("robotsim")

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import requests
 
-from robots.graph import STATION, SiteMap
+from robots.router import STATION, SiteMap
 
 logger = logging.getLogger("robotsim.traffic")
 

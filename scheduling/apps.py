@@ -4,8 +4,3 @@ from django.apps import AppConfig
 class SchedulingConfig(AppConfig):
     name = "scheduling"
     verbose_name = "Delivery tasks and scheduling"
-
-    def ready(self):
-        from scheduling import receivers
-
-        receivers.connect()

@@ -51,3 +51,11 @@ class Cause(models.TextChoices):
     ACK_TIMEOUT = "ack_timeout", "Not acknowledged in time"
     PRESENCE = "presence", "Robot went offline"
     USER = "user", "User"
+
+
+class OperatorActionKind(models.TextChoices):
+    """What an operator can tell a robot (protocol v1 `action` message)."""
+
+    PAUSE = "pause", "Pause"
+    RESUME = "resume", "Resume"
+    RETURN_TO_DOCK = "return_to_dock", "Return to dock"

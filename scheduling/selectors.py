@@ -9,9 +9,9 @@ from datetime import datetime, timedelta
 from django.db.models import Case, IntegerField, Prefetch, Q, QuerySet, Value, When
 
 from robots.choices import WaypointKind
+from robots.mapcache import site_map, waypoint_by_id
 from robots.models import Robot, Site, Waypoint
 from robots.selectors import robot_position, waypoint_code
-from robots.sitemap import site_map, waypoint_by_id
 from scheduling.allocator import RobotRoute, Stop, TaskStops
 from scheduling.choices import FINISHED_STATUSES, HELD_STATUSES, ROUTE_STATUSES, StopAction
 from scheduling.models import RobotPlan, Task, TaskStop, TaskTransition

@@ -5,7 +5,7 @@ from datetime import timedelta
 from django.utils import timezone
 from rest_framework import serializers
 
-from hospital_delivery.fields import StrictCharField, StrictDateTimeField, StrictIntegerField
+from core.fields import StrictCharField, StrictDateTimeField, StrictIntegerField
 from robots.models import Site
 from scheduling.choices import Priority, TaskStatus
 from scheduling.models import RecurringRequest, Task, TaskStop, TaskTransition

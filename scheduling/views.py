@@ -4,7 +4,7 @@ from rest_framework import exceptions, mixins, permissions, status, viewsets
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
-from boards.serializers import ErrorSerializer
+from core.errors import ErrorSerializer
 from scheduling.choices import TaskStatus
 from scheduling.models import Task
 from scheduling.selectors import task_detail, task_list

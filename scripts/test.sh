@@ -3,8 +3,8 @@
 #
 # Installs what it needs (Python packages into .venv; Redis, PostgreSQL and Chromium from Debian's
 # packages when missing), starts Redis and PostgreSQL when they are stopped, then runs, stopping
-# at the first failure: ruff lint, ruff format check, Django's system checks, the missing-migration
-# check and pytest. Extra arguments go to pytest, e.g. ./scripts/test.sh -k heartbeat -x
+# at the first failure: ruff lint, ruff format check, the import-linter contracts (the layers of
+# pyproject.toml), Django's system checks, the missing-migration check and pytest. Extra arguments go to pytest, e.g. ./scripts/test.sh -k heartbeat -x
 set -euo pipefail
 
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -52,6 +52,7 @@ step() {
 
 step "ruff lint" ruff check .
 step "ruff format" ruff format --check .
+step "import layers" lint-imports --no-cache
 step "django system checks" python manage.py check
 step "missing migrations" python manage.py makemigrations --check --dry-run
 # Two workers: the target machines have two cores; each worker gets its own test database.

@@ -6,11 +6,17 @@ import uuid
 
 from django.contrib.auth import get_user_model
 from django.contrib.auth.models import Group
+from django.db import transaction
+from django.utils import timezone
 
+from boards.serializers import HeartbeatSerializer
+from boards.services import heartbeat_apply
 from hospital_delivery.models import ApiToken
+from resources.models import Lease
+from robots.mapcache import floor_code_by_id, site_map
 from robots.models import Robot, Site
-from robots.services import robot_token_issue
-from robots.sites import site_load
+from robots.services import robot_lock, robot_token_issue
+from robots.sitefile import site_load
 
 # A small three-floor hospital with one of each resource kind, and a corridor of capacity 2.
 TINY_SITE = {
@@ -166,3 +172,55 @@ def heartbeat_body(seq: int = 1, *, boot_id: str = "boot-1", **overrides) -> dic
 
 def event_id() -> str:
     return f"e-{uuid.uuid4().hex[:12]}"
+
+
+# --- The resource controller, driven in-process through the real heartbeat service ------------
+# (resources.leases has no acquire/release/enter of its own: robots ask through heartbeats.)
+
+_lease_seqs = itertools.count(1)
+
+
+def heartbeat_apply_now(robot: Robot, *, now, requests=(), events=()) -> None:
+    """Apply one heartbeat of `robot` at `now` carrying `requests` and `events`, as the heartbeat
+    view does (validated, robot row locked, one transaction); it reports the robot idle where it
+    last was (its floor, else 1F)."""
+    with transaction.atomic():
+        locked = robot_lock(robot.pk)
+        floor = floor_code_by_id(locked.site, locked.floor_id) or "1F"
+        body = heartbeat_body(
+            next(_lease_seqs),
+            boot_id="leases-in-process",
+            state={"floor": floor, "waypoint": None, "plan_version": locked.plan_version},
+            requests=list(requests),
+            events=list(events),
+        )
+        serializer = HeartbeatSerializer(data=body, context={"site_map": site_map(locked.site)})
+        serializer.is_valid(raise_exception=True)
+        heartbeat_apply(robot=locked, heartbeat=serializer.validated_data, now=now)
+
+
+def lease_acquire(*, robot, resource, request_id: str, to_floor=None, now=None):
+    """The robot's acquire request; returns its lease on the resource (new or existing)."""
+    request = {"id": request_id, "type": "acquire", "resource": resource.code}
+    if to_floor:
+        request["to_floor"] = to_floor
+    heartbeat_apply_now(robot, now=now or timezone.now(), requests=[request])
+    return _latest_lease(robot, resource)
+
+
+def lease_enter(*, robot, resource, now=None):
+    """The robot's resource_entered event; returns its lease."""
+    event = {"id": event_id(), "type": "resource_entered", "resource": resource.code}
+    heartbeat_apply_now(robot, now=now or timezone.now(), events=[event])
+    return _latest_lease(robot, resource)
+
+
+def lease_release(*, robot, resource, now=None):
+    """The robot's release request; returns the lease it ended."""
+    request = {"id": f"q-{uuid.uuid4().hex[:12]}", "type": "release", "resource": resource.code}
+    heartbeat_apply_now(robot, now=now or timezone.now(), requests=[request])
+    return _latest_lease(robot, resource)
+
+
+def _latest_lease(robot, resource):
+    return Lease.objects.filter(robot=robot, resource=resource).order_by("-pk").first()

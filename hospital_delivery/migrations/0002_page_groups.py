@@ -1,4 +1,4 @@
-"""The two groups the pages know (hospital_delivery.access): nurse and operator."""
+"""The two groups the pages know (core.access): nurse and operator."""
 
 from django.db import migrations
 

@@ -4,7 +4,7 @@ from django.db.models import Q
 from django.utils import timezone
 
 from robots.models.fleet import Robot
-from robots.models.sites import Resource, Site
+from robots.models.map import Resource, Site
 
 
 class AlertKind(models.TextChoices):

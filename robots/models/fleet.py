@@ -7,9 +7,9 @@ from django.db import models
 from django.db.models import Q
 from django.utils import timezone
 
-from hospital_delivery.tokens import token_hash
+from core.tokens import token_hash
 from robots.choices import Presence, RobotStatus
-from robots.models.sites import Floor, Site, Waypoint
+from robots.models.map import Floor, Site, Waypoint
 
 ROBOT_CODE = RegexValidator(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,31}$", "letters, digits, _ . -")
 # Protocol v1: a robot is online while heartbeats arrive within this many intervals.

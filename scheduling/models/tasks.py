@@ -118,15 +118,6 @@ class Task(models.Model):
         finished = self.status in FINISHED_STATUSES or self.status == TaskStatus.DELIVERED
         return not finished and not self.return_trip
 
-    def wire(self) -> dict:
-        """What a robot's plan says about the task (protocol v1, plan `tasks`)."""
-        return {
-            "contents": self.contents,
-            "sender": self.sender,
-            "receiver": self.receiver,
-            "priority": self.priority,
-        }
-
 
 class TaskStopQuerySet(models.QuerySet):
     def remaining(self):

@@ -22,6 +22,7 @@ robot are changed only under that robot's lock; tasks without one only by condit
 from scheduling.services.allocation import due_sweep, task_allocate
 from scheduling.services.cancellation import TaskNotCancellable, task_cancel
 from scheduling.services.events import heartbeat_tasks_apply
+from scheduling.services.operator import robot_action
 from scheduling.services.presence import robot_offline, robot_tasks_give_back
 from scheduling.services.requests import recurring_sweep, task_request
 from scheduling.services.timeouts import ack_timeout_sweep
@@ -32,6 +33,7 @@ __all__ = [
     "due_sweep",
     "heartbeat_tasks_apply",
     "recurring_sweep",
+    "robot_action",
     "robot_offline",
     "robot_tasks_give_back",
     "task_allocate",

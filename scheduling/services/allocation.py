@@ -19,10 +19,10 @@ from django.db import transaction
 from django.db.models import Case, IntegerField, Value, When
 from django.utils import timezone
 
+from robots.mapcache import router_for
 from robots.models import Robot, Site
 from robots.selectors import robots_for_allocation
 from robots.services import robot_lock_if_available
-from robots.sitemap import router_for
 from scheduling.allocator import (
     Stop,
     TaskStops,

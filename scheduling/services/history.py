@@ -5,7 +5,7 @@ from datetime import datetime
 
 from django.db import transaction
 
-from boards.events import publish_on_commit
+from core import changes
 from scheduling.models import Task, TaskTransition
 
 logger = logging.getLogger(__name__)
@@ -44,20 +44,8 @@ def task_record(
         user=user,
         note=note[:300],
     )
-    publish_on_commit(site_id=task.site_id, kind="task", data=task_event_wire(task, entry))
+    changes.changed(kind=changes.TASK, site_id=task.site_id, subject=entry)
     return entry
-
-
-def task_event_wire(task: Task, entry: TaskTransition) -> dict:
-    return {
-        "code": task.code,
-        "status": task.status,
-        "status_label": task.get_status_display(),
-        "old": entry.old,
-        "cause": entry.cause,
-        "robot": entry.robot.code if entry.robot else None,
-        "at": entry.at.isoformat(),
-    }
 
 
 def allocation_enqueue(task_id: int) -> None:

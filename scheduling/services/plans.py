@@ -9,13 +9,14 @@ import math
 from collections.abc import Sequence
 from datetime import datetime, timedelta
 
+from boards import protocol
 from boards.choices import MessageType
 from boards.models import BoardMessage
 from boards.services import board_post, board_withdraw
-from robots.graph import Router
+from robots.mapcache import router_for
 from robots.models import Robot
+from robots.router import Router
 from robots.selectors import robot_dock, robot_position
-from robots.sitemap import router_for
 from scheduling.allocator import Stop, best_plan
 from scheduling.models import RobotPlan, Task
 from scheduling.selectors import HeldRoute, robot_route
@@ -23,7 +24,6 @@ from scheduling.selectors import HeldRoute, robot_route
 logger = logging.getLogger(__name__)
 
 PLAN_KEY = "plan"
-DOCK = "dock"
 
 
 def plan_post(
@@ -32,9 +32,8 @@ def plan_post(
     """Post `stops` as the robot's plan, superseding any unacked plan; store the tasks' ETAs."""
     router = router_for(robot.site)
     wire, arrivals = _wire_stops(router, start, stops)
-    codes = dict.fromkeys(stop.task for stop in stops)
-    body = {"stops": wire, "tasks": {code: tasks[code].wire() for code in codes}}
-    plan = _post(robot, body, now)  # first: the robot is woken, and travels while we go on
+    on_route = {code: _task_wire(tasks[code]) for code in dict.fromkeys(s.task for s in stops)}
+    plan = _post(robot, wire, on_route, now)  # first: the robot is woken, and travels meanwhile
     _etas_store(tasks, arrivals, now)
     return plan
 
@@ -42,11 +41,8 @@ def plan_post(
 def plan_dock_post(*, robot: Robot, now: datetime) -> RobotPlan:
     """The plan of a robot with nothing left to do: back to its dock."""
     dock = robot_dock(robot)
-    stop = {"action": DOCK, "waypoint": dock}
     via = router_for(robot.site).leg(robot_position(robot), dock).via
-    if via:
-        stop["via"] = via
-    return _post(robot, {"stops": [stop], "tasks": {}}, now)
+    return _post(robot, [protocol.plan_dock_stop(waypoint=dock, via=via)], {}, now)
 
 
 def robot_replan(*, robot: Robot, now: datetime, held: HeldRoute | None = None) -> RobotPlan:
@@ -79,10 +75,10 @@ def plan_withdraw_pending(*, robot: Robot, reason: str, now: datetime) -> int:
     return board_withdraw(messages=pending, reason=reason, now=now)
 
 
-def _post(robot: Robot, body: dict, now: datetime) -> RobotPlan:
+def _post(robot: Robot, stops: list[dict], tasks: dict[str, dict], now: datetime) -> RobotPlan:
     current = RobotPlan.objects.filter(robot=robot).select_related("message").first()
     version = max(current.version if current else 0, robot.plan_version) + 1
-    body = {"plan_version": version, **body}
+    body = protocol.plan_body(version=version, stops=stops, tasks=tasks)
     message = board_post(
         robot=robot,
         type=MessageType.PLAN,
@@ -111,19 +107,25 @@ def _wire_stops(router: Router, start: str, stops: Sequence[Stop]):
     wire, arrivals, previous, elapsed = [], [], start, 0.0
     for stop in stops:
         leg = router.leg(previous, stop.place)
-        entry = {
-            "task": stop.task,
-            "stop": stop.index,
-            "action": stop.action,
-            "waypoint": stop.place,
-        }
-        if leg.via:
-            entry["via"] = leg.via
-        wire.append(entry)
+        wire.append(
+            protocol.plan_stop(
+                task=stop.task,
+                stop=stop.index,
+                action=stop.action,
+                waypoint=stop.place,
+                via=leg.via,
+            )
+        )
         elapsed += leg.seconds
         arrivals.append((stop.task, elapsed))
         previous = stop.place
     return wire, arrivals
+
+
+def _task_wire(task: Task) -> dict:
+    return protocol.plan_task(
+        contents=task.contents, sender=task.sender, receiver=task.receiver, priority=task.priority
+    )
 
 
 def _etas_store(tasks: dict[str, Task], arrivals, now: datetime) -> None:

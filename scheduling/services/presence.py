@@ -1,5 +1,5 @@
 """A robot that goes offline gives back the tasks it has not picked up (protocol v1); so does
-a robot an operator sends back to its dock (robots.operator)."""
+a robot an operator sends back to its dock (scheduling.services.operator)."""
 
 from datetime import datetime
 

@@ -5,9 +5,9 @@ import threading
 
 import pytest
 
+from boards.hooks import heartbeat_applied
 from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.services import board_post, board_withdraw
-from boards.signals import heartbeat_applied
 from robots.models import Robot
 from tests import factories
 
@@ -17,13 +17,12 @@ def applied_events():
     """Every event id handed to heartbeat_applied receivers, in order, whatever the thread."""
     seen, lock = [], threading.Lock()
 
-    def receiver(sender, applied, **kwargs):
+    def receiver(*, applied):
         with lock:
             seen.extend(event.event_id for event in applied.events)
 
-    heartbeat_applied.connect(receiver, weak=False)
-    yield seen
-    heartbeat_applied.disconnect(receiver)
+    with heartbeat_applied.watched_by(receiver):
+        yield seen
 
 
 def post_action(robot, action="pause"):

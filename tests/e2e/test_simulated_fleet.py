@@ -21,7 +21,8 @@ import pytest
 
 from bench.stack import Stack
 from boards.models import RobotEvent
-from robots.models import Alert, Lease, Resource
+from resources.models import Lease
+from robots.models import Alert, Resource
 from robotsim.fleet import Fleet, FleetConfig, RobotSpec
 from robotsim.network import NetworkModel
 from robotsim.simulator import Behaviour

@@ -6,8 +6,9 @@ import itertools
 import pytest
 
 from boards.models import BoardMessage
-from robots.choices import HOLDING_LEASE_STATES
-from robots.models import Lease, Resource
+from resources.choices import HOLDING_LEASE_STATES
+from resources.models import Lease
+from robots.models import Resource
 from tests import factories
 from tests.conftest import RobotHttp
 

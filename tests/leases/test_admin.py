@@ -4,9 +4,9 @@ import pytest
 from django.contrib.messages import get_messages
 from django.test import Client
 
-from robots.leases import lease_acquire, lease_enter
-from robots.models import Lease
+from resources.models import Lease
 from tests import factories
+from tests.factories import lease_acquire, lease_enter
 from tests.leases.conftest import holders, resource
 
 
@@ -33,7 +33,7 @@ def elevator_queue(site):
 
 
 def test_it_shows_queue_positions_in_the_lease_list(admin_client, elevator_queue):
-    response = admin_client.get("/admin/robots/lease/?state__exact=queued")
+    response = admin_client.get("/admin/resources/lease/?state__exact=queued")
 
     assert response.status_code == 200
     rows = [(lease.public_id, lease.queue_position) for lease in response.context["cl"].result_list]
@@ -56,7 +56,7 @@ def test_it_force_releases_from_the_admin_and_grants_the_next_in_line(
 
     with django_capture_on_commit_callbacks(execute=True):
         response = admin_client.post(
-            "/admin/robots/lease/",
+            "/admin/resources/lease/",
             {"action": "force_release", "_selected_action": [inside.pk]},
             follow=True,
         )
@@ -75,12 +75,12 @@ def test_it_allows_no_editing_adding_or_deleting_of_leases_in_the_admin(
 ):
     lease = elevator_queue[1]
 
-    page = admin_client.get(f"/admin/robots/lease/{lease.pk}/change/")
-    admin_client.post(f"/admin/robots/lease/{lease.pk}/change/", {"state": "granted"})
+    page = admin_client.get(f"/admin/resources/lease/{lease.pk}/change/")
+    admin_client.post(f"/admin/resources/lease/{lease.pk}/change/", {"state": "granted"})
 
     assert page.status_code == 200
     assert b'name="_save"' not in page.content
-    assert admin_client.get("/admin/robots/lease/add/").status_code == 403
-    assert admin_client.get(f"/admin/robots/lease/{lease.pk}/delete/").status_code == 403
+    assert admin_client.get("/admin/resources/lease/add/").status_code == 403
+    assert admin_client.get(f"/admin/resources/lease/{lease.pk}/delete/").status_code == 403
     lease.refresh_from_db()
     assert lease.state == "queued"

@@ -5,8 +5,8 @@ import copy
 import pytest
 
 from boards.models import BoardMessage, RobotEvent, RobotRequest
-from robots.leases import lease_sweep
-from robots.models import Lease
+from resources.leases import lease_sweep
+from resources.models import Lease
 from tests import factories
 from tests.leases.conftest import acquire, event, holders, release
 

@@ -8,8 +8,8 @@ import pytest
 from django.db import connections
 
 from boards.models import BoardMessage
-from robots.choices import HOLDING_LEASE_STATES
-from robots.models import Lease
+from resources.choices import HOLDING_LEASE_STATES
+from resources.models import Lease
 from tests import factories
 from tests.conftest import RobotHttp
 from tests.leases.conftest import Bot, acquire, event, holders, lease_of, of_type, release

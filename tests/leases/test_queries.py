@@ -3,8 +3,8 @@
 import pytest
 from django.test import Client
 
-from robots.leases import lease_acquire
 from tests import factories
+from tests.factories import lease_acquire
 from tests.leases.conftest import acquire, resource
 
 

@@ -5,14 +5,9 @@ from datetime import timedelta
 import pytest
 from django.utils import timezone
 
-from robots.leases import (
-    lease_acquire,
-    lease_enter,
-    lease_release,
-    resource_queue,
-    resource_wait_estimate,
-)
+from resources.leases import resource_queue, resource_wait_estimate
 from tests import factories
+from tests.factories import lease_acquire, lease_enter, lease_release
 from tests.leases.conftest import resource
 
 SECOND = timedelta(seconds=1)

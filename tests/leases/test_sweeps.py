@@ -13,18 +13,14 @@ from django.db import connections
 from django.utils import timezone
 
 from boards.models import BoardMessage
-from robots import tasks
+from resources import tasks
+from resources.leases import lease_expire, lease_revoke, lease_sweep
+from resources.models import Lease
 from robots.alerts import alert_acknowledge
-from robots.leases import (
-    lease_acquire,
-    lease_enter,
-    lease_expire,
-    lease_revoke,
-    lease_sweep,
-)
-from robots.models import Alert, Lease, Robot
+from robots.models import Alert, Robot
 from robots.services import presence_sweep
 from tests import factories
+from tests.factories import lease_acquire, lease_enter
 from tests.leases.conftest import holders, messages_about, resource
 
 SECOND = timedelta(seconds=1)

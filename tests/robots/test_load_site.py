@@ -9,7 +9,7 @@ import pytest
 from django.core.management import CommandError, call_command
 
 from robots.models import Edge, Floor, Resource, ResourceWaypoint, Robot, Site, Waypoint
-from robots.sites import SiteFileInvalid, site_file_read, site_file_validate, site_load
+from robots.sitefile import SiteFileInvalid, site_file_read, site_file_validate, site_load
 
 ROOT = Path(__file__).resolve().parents[2]
 EULJI = ROOT / "sites" / "eulji.yaml"

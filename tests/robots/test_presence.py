@@ -7,21 +7,20 @@ from datetime import timedelta
 
 import pytest
 
+from robots.hooks import presence_changed
 from robots.models import PresenceChange, Robot
 from robots.services import presence_sweep, presence_sweep_step
-from robots.signals import presence_changed
 
 
 @pytest.fixture
 def flips():
     seen = []
 
-    def receiver(sender, robot, old, new, at, **kwargs):
+    def receiver(*, robot, old, new, at):
         seen.append((robot.code, old, new))
 
-    presence_changed.connect(receiver, weak=False)
-    yield seen
-    presence_changed.disconnect(receiver)
+    with presence_changed.watched_by(receiver):
+        yield seen
 
 
 def seen_robot(robot_http, robot):

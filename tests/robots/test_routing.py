@@ -6,11 +6,11 @@ from pathlib import Path
 
 import pytest
 
-from robots import graph
-from robots.graph import Router, site_map_from_file
+from robots import router as graph
+from robots.mapcache import router_for
 from robots.models import Site
-from robots.sitemap import router_for
-from robots.sites import site_file_read, site_load
+from robots.router import Router, site_map_from_file
+from robots.sitefile import site_file_read, site_load
 
 EULJI = Path(__file__).resolve().parents[2] / "sites" / "eulji.yaml"
 

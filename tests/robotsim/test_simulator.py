@@ -11,9 +11,9 @@ import pytest
 
 from bench.inprocess import SERVER_URL, InProcessTaskApi, InProcessTransport
 from boards.models import RobotEvent
-from robots.graph import site_map_from_file
-from robots.leases import lease_sweep
-from robots.models import Lease
+from resources.leases import lease_sweep
+from resources.models import Lease
+from robots.router import site_map_from_file
 from robotsim.client import RobotClient
 from robotsim.simulator import Behaviour, ManualClock, RobotLoop, SimRobot
 from scheduling.models import Task

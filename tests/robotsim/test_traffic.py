@@ -7,7 +7,7 @@ import pytest
 import yaml
 
 from bench.inprocess import InProcessTaskApi
-from robots.graph import site_map_from_file
+from robots.router import site_map_from_file
 from robotsim.traffic import KINDS, Stations, TrafficGenerator, day_requests, request_body
 from tests import factories
 

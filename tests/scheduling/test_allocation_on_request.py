@@ -11,8 +11,8 @@ from channels.testing import WebsocketCommunicator
 from django.conf import settings
 from django.db import connection, transaction
 
-from boards.events import robot_group
 from boards.models import BoardMessage
+from boards.push import robot_group
 from hospital_delivery.asgi import application
 from scheduling.models import AllocationLock
 from scheduling.services.allocation import NO_ROBOT

@@ -7,7 +7,7 @@ import pytest
 from django.test import Client
 from django.utils import timezone
 
-from robots.sites import site_load
+from robots.sitefile import site_load
 from scheduling.models import RecurringRequest, Task, TaskTransition
 from tests import factories
 from tests.scheduling.conftest import request

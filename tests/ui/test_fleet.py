@@ -5,10 +5,10 @@ import re
 import pytest
 from django.utils import timezone
 
-from robots.leases import lease_acquire
 from robots.models import Resource, Robot
 from scheduling.models import Task
 from tests import factories
+from tests.factories import lease_acquire
 from tests.scheduling.conftest import request, robot_ready
 
 
@@ -79,10 +79,11 @@ def test_it_shows_who_holds_and_who_waits_for_each_resource(nurse_client, site):
     html = nurse_client.get("/fleet/").content.decode()
 
     resource = re.search(r'<tr data-resource="ELEV">.*?</tr>', html, re.S).group(0)
-    holder, waiting = re.findall(r"<td>(.*?)</td>", resource, re.S)
+    holder, waiting, wait = re.findall(r"<td>(.*?)</td>", resource, re.S)
     assert ">R1</a>" in holder
     assert "granted" in holder
     assert "1. <a" in waiting
+    assert re.fullmatch(r"about \d+ s", wait)  # resources.leases.resource_wait_estimate
     assert ">R2</a>" in waiting
 
 
@@ -100,6 +101,7 @@ def test_it_renders_the_fleet_page_in_constant_queries(
         Task.objects.filter(pk=task.pk).update(robot=robot, status="assigned")
     nurse_client.get("/fleet/")  # the site map is cached from now on
 
-    # session, user, the user's groups, sites, robots, their tasks, leases, open alerts
-    with django_assert_num_queries(8):
+    # session, user, the user's groups, sites, robots, their tasks, leases, resources in use
+    # (none: no wait to estimate), open alerts
+    with django_assert_num_queries(9):
         assert nurse_client.get("/fleet/").content.count(b"<tr data-robot=") == robots

@@ -6,12 +6,12 @@ from datetime import datetime, timedelta
 import pytest
 from django.db import transaction
 
-from boards.events import site_group
 from robots.models import Waypoint
-from robots.operator import robot_action
 from robots.services import presence_sweep, robot_heartbeat_record, robot_lock
+from scheduling.services import robot_action
 from tests import factories
 from tests.scheduling.conftest import Beater, request
+from ui.live.publish import site_group
 
 # 09:00:00 site time: 10-second refresh periods start at whole tens of seconds.
 T0 = datetime.fromisoformat("2026-11-22T09:00:00+09:00")
@@ -19,9 +19,11 @@ T0 = datetime.fromisoformat("2026-11-22T09:00:00+09:00")
 
 @pytest.fixture
 def sent(monkeypatch):
-    """What boards.events hands to the channel layer (after commit), in order."""
+    """What ui.live.publish hands to the channel layer (after commit), in order."""
     sent = []
-    monkeypatch.setattr("boards.events._send", lambda group, message: sent.append((group, message)))
+    monkeypatch.setattr(
+        "ui.live.publish.group_send", lambda group, message: sent.append((group, message))
+    )
     return sent
 
 

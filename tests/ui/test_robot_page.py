@@ -3,11 +3,10 @@
 import pytest
 
 from boards.models import BoardMessage
-from robots.models import OperatorAction, Robot
-from robots.operator import robot_action
+from robots.models import Robot
 from robots.selectors import robots_for_allocation
-from scheduling.models import Task
-from scheduling.services import task_allocate
+from scheduling.models import OperatorAction, Task
+from scheduling.services import robot_action, task_allocate
 from tests import factories
 from tests.scheduling.conftest import Beater, event, plans, request, robot_ready
 

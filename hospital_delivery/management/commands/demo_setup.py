@@ -24,7 +24,7 @@ from django.db import transaction
 from hospital_delivery.models import ApiToken
 from robots.models import Robot, Site
 from robots.services import robot_token_issue
-from robots.sites import SiteFileInvalid, site_file_read
+from robots.sitefile import SiteFileInvalid, site_file_read
 
 GROUPS = ("nurse", "operator")
 # username -> (group, staff, superuser, what it is for)

@@ -2,7 +2,7 @@ from django.core.management.base import BaseCommand, CommandError
 
 from robots.choices import WaypointKind
 from robots.models import Site
-from robots.sites import SiteFileInvalid, site_file_read, site_file_validate, site_load
+from robots.sitefile import SiteFileInvalid, site_file_read, site_file_validate, site_load
 
 
 class Command(BaseCommand):

@@ -1,0 +1,82 @@
+"""Everything a robot receives, built here and only here (docs/robot-protocol.md).
+
+The heartbeat's answer, and the body of each message posted on a robot's board: other apps
+decide what to post (the scheduler a plan, the resource controller a grant, an operator an
+action) and call these builders with plain values, so the wire format has one home.
+"""
+
+from datetime import UTC, datetime
+
+from boards.models import BoardMessage
+
+
+def wire_time(moment: datetime) -> str:
+    """2026-11-22T09:14:03.131Z"""
+    return moment.astimezone(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+
+
+def heartbeat_reply_wire(reply) -> dict:
+    """The 200 answer to a heartbeat (boards.services.HeartbeatReply)."""
+    return {
+        "server_time": wire_time(reply.server_time),
+        "heartbeat_interval": reply.heartbeat_interval,
+        "messages": [message_wire(message) for message in reply.messages],
+    }
+
+
+def message_wire(message: BoardMessage) -> dict:
+    return {"id": message.public_id, "type": message.type, **message.body}
+
+
+# --- Message bodies (what goes with "id" and "type") -------------------------------------------
+
+
+def plan_body(*, version: int, stops: list[dict], tasks: dict[str, dict]) -> dict:
+    """A `plan`: the robot's whole remaining route, applied only if `version` is newer."""
+    return {"plan_version": version, "stops": stops, "tasks": tasks}
+
+
+def plan_stop(*, task: str, stop: int, action: str, waypoint: str, via: list[str]) -> dict:
+    """A pick-up or drop-off of a plan; `via`: elevator waiting points on the way there."""
+    entry = {"task": task, "stop": stop, "action": action, "waypoint": waypoint}
+    if via:
+        entry["via"] = via
+    return entry
+
+
+def plan_dock_stop(*, waypoint: str, via: list[str]) -> dict:
+    """The one stop of a robot with nothing left to do (an addition to v1: action "dock")."""
+    entry = {"action": "dock", "waypoint": waypoint}
+    if via:
+        entry["via"] = via
+    return entry
+
+
+def plan_task(*, contents: str, sender: str, receiver: str, priority: str) -> dict:
+    """What a plan says about each of its tasks (`tasks`, by task code)."""
+    return {"contents": contents, "sender": sender, "receiver": receiver, "priority": priority}
+
+
+def grant_body(
+    *, request: str, resource: str, lease: str, expires_at: datetime, to_floor: str | None
+) -> dict:
+    """`resource_grant`: enter until expires_at; `to_floor` (an addition) for elevators."""
+    body = {
+        "request": request,
+        "resource": resource,
+        "lease": lease,
+        "expires_at": wire_time(expires_at),
+    }
+    if to_floor:
+        body["to_floor"] = to_floor
+    return body
+
+
+def queued_body(*, request: str, resource: str, position: int) -> dict:
+    """`resource_queued`: wait at the waiting point; position 1 is next."""
+    return {"request": request, "resource": resource, "position": position}
+
+
+def action_body(*, action: str) -> dict:
+    """`action`: pause, resume or return_to_dock, from an operator."""
+    return {"action": action}

@@ -1,0 +1,36 @@
+"""The robots' push channel (protocol v1, "Push channel"): a wake-up telling a robot with an
+open socket (boards/consumers.py) to heartbeat now. Board contents never travel here: only in
+heartbeat responses, so a lost wake-up costs at most one heartbeat interval.
+"""
+
+import logging
+
+from django.db import transaction
+
+from core.pubsub import group_send
+
+logger = logging.getLogger(__name__)
+
+
+def robot_group(robot_code: str) -> str:
+    return f"robot-{robot_code}"
+
+
+def wake_on_commit(*, robot_code: str, message_id: str) -> None:
+    """Ask a robot with an open push channel to heartbeat now (it will find message_id)."""
+    transaction.on_commit(lambda: _wake(robot_code, message_id), robust=True)
+
+
+def wake_now(*, robot_code: str, message_id: str) -> None:
+    """wake_on_commit, but at once: only for a caller holding the robot's row lock
+    (robots.services.robot_lock). The heartbeat the wake causes waits for that lock, so it finds
+    message_id committed, and the robot's trip to the server overlaps the rest of the
+    transaction. If that rolls back, the robot has heartbeated once for nothing."""
+    try:
+        _wake(robot_code, message_id)
+    except Exception:
+        logger.exception("waking %s failed", robot_code)
+
+
+def _wake(robot_code: str, message_id: str) -> None:
+    group_send(robot_group(robot_code), {"type": "robot.wake", "message": message_id})

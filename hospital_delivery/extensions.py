@@ -1,0 +1,31 @@
+"""Where lower layers hand work up: every receiver of every extension point, in the order each
+runs. Nothing else connects them (core/hooks.py).
+
+The layers (pyproject.toml, [tool.importlinter]) point down: the fleet (robots) knows nothing of
+the message board (boards), the board nothing of the resource controller (resources) or the
+scheduler (scheduling), and none of them anything of the pages (ui). Where a lower layer must
+reach up, it calls a hook, and the project package, which sits above all of them, says here who
+answers.
+"""
+
+from django.contrib.auth.signals import user_logged_out
+
+from boards.hooks import heartbeat_applied
+from core.changes import changed
+from resources import receivers as resources
+from robots.hooks import presence_changed
+from scheduling import receivers as scheduling
+from ui.live import publish
+
+
+def connect() -> None:
+    # A heartbeat's resource events and requests first, then its task events: a robot that
+    # reports resource_released and task_completed in one heartbeat frees the lift before the
+    # scheduler plans its next move. Either may refuse the heartbeat (400, nothing applied).
+    heartbeat_applied.connect(resources.on_heartbeat_applied, scheduling.on_heartbeat_applied)
+    # A robot gone offline leaves the lease queues it waits in, then gives back its tasks.
+    presence_changed.connect(resources.on_presence_changed, scheduling.on_presence_changed)
+    # Whatever changed that people can see goes to the site's live pages after commit.
+    changed.connect(publish.on_change)
+    # Logging out closes that session's live pages (Django's own signal).
+    user_logged_out.connect(publish.on_user_logged_out, dispatch_uid="ui-live-logout")

@@ -1,0 +1,162 @@
+"""The building as the robots see it: floors, waypoints, edges and shared resources.
+
+Written only by the site loader (robots/sitefile.py), which validates a whole file first.
+"""
+
+from django.core.validators import MinValueValidator
+from django.db import models
+
+from robots.choices import ResourceKind, WaypointKind
+
+POSITIVE = [MinValueValidator(0.001)]
+
+
+class Site(models.Model):
+    code = models.SlugField(max_length=64, unique=True)
+    name = models.CharField(max_length=200, blank=True)
+    robot_speed = models.FloatField(
+        default=1.0, validators=POSITIVE, help_text="metres per second, for every robot"
+    )
+    heartbeat_interval = models.FloatField(
+        default=1.0, validators=POSITIVE, help_text="seconds between robot heartbeats"
+    )
+    ack_timeout = models.FloatField(
+        default=30.0, validators=POSITIVE, help_text="seconds for a robot to acknowledge a plan"
+    )
+    offline_timeout = models.FloatField(
+        default=300.0, validators=POSITIVE, help_text="seconds of silence before offline"
+    )
+    grant_timeout = models.FloatField(
+        default=60.0,
+        validators=POSITIVE,
+        help_text="seconds a robot has to enter a resource it was granted",
+    )
+    lease_hard_limit = models.FloatField(
+        default=900.0,
+        validators=POSITIVE,
+        help_text="seconds a silent robot inside a resource keeps it before operators are alerted",
+    )
+    battery_threshold = models.FloatField(
+        default=0.2, help_text="robots below this battery level get no new tasks"
+    )
+    map_version = models.PositiveIntegerField(
+        default=1, editable=False, help_text="bumped by every load; routing caches key on it"
+    )
+    loaded_at = models.DateTimeField(null=True, blank=True, editable=False)
+
+    def __str__(self):
+        return self.name or self.code
+
+
+class Floor(models.Model):
+    site = models.ForeignKey(Site, on_delete=models.CASCADE, related_name="floors")
+    code = models.CharField(max_length=32)
+    level = models.IntegerField()
+    name = models.CharField(max_length=200, blank=True)
+
+    class Meta:
+        ordering = ["site", "level"]
+        constraints = [
+            models.UniqueConstraint(fields=["site", "code"], name="floor_code_unique_in_site"),
+        ]
+
+    def __str__(self):
+        return self.code
+
+
+class Waypoint(models.Model):
+    site = models.ForeignKey(Site, on_delete=models.CASCADE, related_name="waypoints")
+    floor = models.ForeignKey(Floor, on_delete=models.CASCADE, related_name="waypoints")
+    code = models.CharField(max_length=64)
+    name = models.CharField(max_length=200, blank=True)
+    kind = models.CharField(max_length=16, choices=WaypointKind, default=WaypointKind.PLAIN)
+    x = models.FloatField()
+    y = models.FloatField()
+
+    class Meta:
+        ordering = ["site", "floor__level", "code"]
+        constraints = [
+            models.UniqueConstraint(fields=["site", "code"], name="waypoint_code_unique_in_site"),
+        ]
+
+    def __str__(self):
+        return f"{self.name} ({self.code})" if self.name else self.code
+
+    @property
+    def label(self) -> str:
+        return self.name or self.code
+
+
+class Resource(models.Model):
+    """Something only `capacity` robots may use at once: an elevator, a door, a corridor."""
+
+    site = models.ForeignKey(Site, on_delete=models.CASCADE, related_name="resources")
+    code = models.CharField(max_length=64)
+    name = models.CharField(max_length=200, blank=True)
+    kind = models.CharField(max_length=16, choices=ResourceKind)
+    capacity = models.PositiveSmallIntegerField(default=1, validators=[MinValueValidator(1)])
+    seconds_per_floor = models.FloatField(default=0.0, help_text="elevators only")
+    overhead_seconds = models.FloatField(
+        default=0.0, help_text="elevators only: call, doors, entering and leaving"
+    )
+    waypoints = models.ManyToManyField(
+        Waypoint, through="ResourceWaypoint", related_name="waiting_for"
+    )
+
+    class Meta:
+        ordering = ["site", "code"]
+        constraints = [
+            models.UniqueConstraint(fields=["site", "code"], name="resource_code_unique_in_site"),
+        ]
+
+    def __str__(self):
+        return self.code
+
+    @property
+    def is_elevator(self) -> bool:
+        return self.kind == ResourceKind.ELEVATOR
+
+    def ride_seconds(self, from_level: int, to_level: int) -> float:
+        return self.overhead_seconds + self.seconds_per_floor * abs(to_level - from_level)
+
+
+class ResourceWaypoint(models.Model):
+    """A waiting waypoint of a resource; for an elevator, its stop on the waypoint's floor."""
+
+    resource = models.ForeignKey(Resource, on_delete=models.CASCADE, related_name="stops")
+    waypoint = models.ForeignKey(Waypoint, on_delete=models.CASCADE, related_name="+")
+
+    class Meta:
+        constraints = [
+            models.UniqueConstraint(
+                fields=["resource", "waypoint"], name="resource_waypoint_unique"
+            ),
+        ]
+
+    def __str__(self):
+        return f"{self.resource.code} @ {self.waypoint.code}"
+
+
+class Edge(models.Model):
+    site = models.ForeignKey(Site, on_delete=models.CASCADE, related_name="edges")
+    source = models.ForeignKey(Waypoint, on_delete=models.CASCADE, related_name="edges_out")
+    target = models.ForeignKey(Waypoint, on_delete=models.CASCADE, related_name="edges_in")
+    length = models.FloatField(validators=[MinValueValidator(0.0)], help_text="metres")
+    oneway = models.BooleanField(default=False)
+    guarded_by = models.ForeignKey(
+        Resource,
+        null=True,
+        blank=True,
+        on_delete=models.SET_NULL,
+        related_name="guarded_edges",
+        help_text="door or corridor whose lease a robot needs to pass this edge",
+    )
+
+    class Meta:
+        constraints = [
+            models.UniqueConstraint(fields=["source", "target"], name="edge_unique"),
+        ]
+
+    def __str__(self):
+        arrow = "->" if self.oneway else "<->"
+        return f"{self.source.code} {arrow} {self.target.code}"

@@ -1,0 +1,88 @@
+"""The deliveries page (the paper's Figure 4): the request form and the schedule table, a
+task's history, and cancelling from the table.
+
+A request goes through the API's own validation (TaskRequestSerializer) and service
+(task_request), so a nurse's form and a hospital system's API call behave alike.
+"""
+
+from django.contrib import messages
+from django.core.exceptions import PermissionDenied
+from django.http import Http404
+from django.shortcuts import get_object_or_404, redirect, render
+from django.urls import reverse
+from django.views.decorators.http import require_POST
+
+from core.access import can_cancel, member_required
+from robots.models import Site
+from scheduling.models import Task
+from scheduling.selectors import stations_for_site, task_detail
+from scheduling.serializers import TaskRequestSerializer
+from scheduling.services import TaskNotCancellable, task_cancel, task_request
+from ui.forms import DeliveryRequestForm
+from ui.live.parts import schedule_context, user_may_cancel
+from ui.selectors import page_site
+
+
+@member_required
+def deliveries(request):
+    """GET: the form and the schedule. POST: request a delivery; on success back to the page
+    (the new task in the table), else the form again with each error next to its field."""
+    site, sites = page_site(request)
+    stations = stations_for_site(site=site)
+    form = DeliveryRequestForm(
+        request.POST if request.method == "POST" else None,
+        sites=sites,
+        site=site,
+        stations=stations,
+    )
+    if request.method == "POST" and form.is_valid():
+        request_data = TaskRequestSerializer(data=form.api_data())
+        if request_data.is_valid():
+            task = task_request(requester=request.user, **request_data.validated_data)
+            messages.success(request, f"Delivery {task.code} requested: {task.contents}.")
+            return redirect(_deliveries_url(task.site))
+        form.add_api_errors(request_data.errors)
+    status = 400 if form.is_bound else 200
+    context = {
+        "page_site": site,
+        "sites": sites,
+        "form": form,
+        "stations": stations,
+        **schedule_context(request, site),
+    }
+    return render(request, "scheduling/deliveries.html", context, status=status)
+
+
+@member_required
+def task_history(request, code: str):
+    """Every transition of a task with its time and cause; ?partial=1 for the page's dialog."""
+    task = task_detail(code=code)
+    if task is None:
+        raise Http404(f"no task {code!r}")
+    context = {
+        "page_site": task.site,
+        "task": task,
+        "can_cancel": user_may_cancel(request.user, task),
+    }
+    if request.GET.get("partial"):
+        return render(request, "scheduling/_task_history.html", context)
+    return render(request, "scheduling/task_history.html", context)
+
+
+@require_POST
+@member_required
+def task_cancel_post(request, code: str):
+    task = get_object_or_404(Task.objects.with_code(code).select_related("site"))
+    if not can_cancel(request.user, task):
+        raise PermissionDenied("only operators may cancel other people's deliveries")
+    try:
+        task_cancel(task=task, by=request.user)
+    except TaskNotCancellable as refused:
+        messages.error(request, f"{task.code} could not be cancelled: {refused}.")
+    else:
+        messages.success(request, f"Delivery {task.code} cancelled.")
+    return redirect(_deliveries_url(task.site))
+
+
+def _deliveries_url(site: Site) -> str:
+    return f"{reverse('deliveries')}?site={site.code}"

@@ -1,0 +1,111 @@
+"""Pages of the fleet (the thesis' device list and "select a device -> its status"): the fleet
+panel with the floor map, a robot's page with the operator's buttons, and acknowledging alerts.
+
+Thin views: reads through selectors, writes through services. The parts a page updates live are
+rendered by ui/live/parts.py, for the page and for its re-read after a reconnect.
+"""
+
+from dataclasses import dataclass
+
+from django.contrib import messages
+from django.http import Http404, HttpResponseBadRequest
+from django.shortcuts import get_object_or_404, redirect, render
+from django.utils.http import url_has_allowed_host_and_scheme
+from django.views.decorators.http import require_POST
+
+from core.access import member_required, operator_required
+from robots.alerts import alert_acknowledge
+from robots.models import Alert, Robot, Site
+from robots.selectors import fleet_snapshot
+from scheduling.choices import OperatorActionKind
+from scheduling.services import robot_action
+from ui.drawing import FloorDrawing, floor_drawing, floors_of
+from ui.forms import RobotActionForm
+from ui.live.parts import fleet_context, resources_context, robot_context
+from ui.live.payloads import robot_payload
+from ui.selectors import page_site, robot_detail
+
+
+@member_required
+def fleet(request):
+    """Every robot of the site, and a floor's map with the robots on it."""
+    site, sites = page_site(request)
+    robots = fleet_snapshot(site=site)
+    floor = request.GET.get("floor") or _busiest_floor(site, robots)
+    drawing = floor_drawing(site=site, floor=floor)
+    if drawing is None:
+        raise Http404(f"no floor {floor!r} at {site.code}")
+    context = {
+        "page_site": site,
+        "sites": sites,
+        "floors": floors_of(site=site),
+        "drawing": drawing,
+        "markers": _markers(drawing, robots),
+        **fleet_context(site, robots),
+        **resources_context(site),
+    }
+    return render(request, "robots/fleet.html", context)
+
+
+@member_required
+def robot_page(request, code: str):
+    """One robot: its state, plan, tasks, recent events and presence, and operator actions."""
+    detail = robot_detail(code=code)
+    if detail is None:
+        raise Http404(f"no robot {code!r}")
+    return render(request, "robots/robot.html", robot_context(detail))
+
+
+@require_POST
+@operator_required
+def robot_action_post(request, code: str):
+    robot = get_object_or_404(Robot, code=code)
+    form = RobotActionForm(request.POST)
+    if not form.is_valid():
+        return HttpResponseBadRequest("unknown action")
+    action = form.cleaned_data["action"]
+    robot_action(robot=robot, action=action, by=request.user)
+    label = OperatorActionKind(action).label
+    messages.success(request, f"{label} sent to {robot.code}.")
+    return redirect("robot-page", code=robot.code)
+
+
+@require_POST
+@operator_required
+def alert_acknowledge_post(request, pk: int):
+    alert = get_object_or_404(Alert, pk=pk)
+    if not alert_acknowledge(alert=alert, user=request.user):
+        messages.info(request, "Someone had already acknowledged that alert.")
+    back = request.POST.get("next", "")
+    safe = url_has_allowed_host_and_scheme(back, {request.get_host()}, request.is_secure())
+    return redirect(back if safe and back else "deliveries")
+
+
+# --- Helpers ------------------------------------------------------------------------------------
+
+
+def _busiest_floor(site: Site, robots: list[Robot]) -> str:
+    """The floor most robots are on (ties: the higher); the top floor if none reported."""
+    floors = [code for code, _label in floors_of(site=site)]
+    counts = dict.fromkeys(floors, 0)
+    for wire in map(robot_payload, robots):
+        if wire["floor"] in counts:
+            counts[wire["floor"]] += 1
+    return max(floors, key=lambda code: (counts[code], -floors.index(code)))
+
+
+@dataclass(frozen=True)
+class Marker:
+    code: str
+    presence: str
+    x: float
+    y: float
+
+
+def _markers(drawing: FloorDrawing, robots: list[Robot]) -> list[Marker]:
+    markers = []
+    for wire in map(robot_payload, robots):
+        if wire["floor"] == drawing.floor and wire["x"] is not None and wire["y"] is not None:
+            x, y = drawing.place(wire["x"], wire["y"])
+            markers.append(Marker(wire["code"], wire["presence"], x, y))
+    return markers

@@ -1,0 +1,242 @@
+"""The pages' forms: the delivery request form of the deliveries page (the paper's Figure 4a),
+and the operator's buttons on a robot's page.
+
+The form only turns what the browser sends (station names, a datetime-local value, the repeat
+fields, one input per pick-up or drop-off) into the API's request. The rules are the API's:
+the view validates that with scheduling.serializers.TaskRequestSerializer, and the errors are
+put back next to the field that caused them (add_api_errors).
+"""
+
+import re
+from dataclasses import dataclass
+
+from django import forms
+from django.utils import timezone
+
+from scheduling.choices import OperatorActionKind, Priority
+
+DATETIME_LOCAL = "%Y-%m-%dT%H:%M"
+REPEAT_TIMES = "times"
+REPEAT_EVERY = "every"
+REPEAT_CHOICES = [
+    ("", "No"),
+    (REPEAT_TIMES, "Every day at set times"),
+    (REPEAT_EVERY, "Every few minutes within a daily window"),
+]
+# The form's stop inputs: (input name, the API's field, the label of the first input).
+STOPS = {"pickup": ("pickups", "Pick-up"), "dropoff": ("dropoffs", "Drop-off")}
+# The API's fields -> this form's fields (None: the form as a whole).
+API_FIELDS = {
+    "site": "site",
+    "requested_time": "requested_time",
+    "sender": "sender",
+    "receiver": "receiver",
+    "contents": "contents",
+    "priority": "priority",
+    "non_field_errors": None,
+}
+REPEAT_FIELDS = {
+    "times": "repeat_times",
+    "every_minutes": "repeat_every",
+    "from": "repeat_from",
+    "until": "repeat_until",
+}
+
+
+class DateTimeLocalInput(forms.DateTimeInput):
+    input_type = "datetime-local"
+
+    def __init__(self, attrs=None):
+        super().__init__(attrs={"step": 60, **(attrs or {})}, format=DATETIME_LOCAL)
+
+
+class TimeOfDayInput(forms.TextInput):
+    input_type = "time"
+
+
+@dataclass(frozen=True)
+class StopInput:
+    """One pick-up or drop-off input as the template renders it."""
+
+    id: str
+    name: str
+    label: str
+    value: str
+    errors: list[str]
+    number: int
+
+    @property
+    def error_id(self) -> str:
+        return f"{self.id}_error"
+
+
+class DeliveryRequestForm(forms.Form):
+    # No `required` here: the API's serializer decides what is missing (and says so per field).
+    use_required_attribute = False
+
+    site = forms.ChoiceField(label="Site", required=False)
+    requested_time = forms.DateTimeField(
+        label="Requested time",
+        required=False,
+        widget=DateTimeLocalInput(),
+        input_formats=[DATETIME_LOCAL, f"{DATETIME_LOCAL}:%S"],
+        # Left as shown, it means "now" when submitted, however long the form was open.
+        show_hidden_initial=True,
+    )
+    sender = forms.CharField(label="Sender", required=False, strip=True)
+    receiver = forms.CharField(label="Receiver", required=False, strip=True)
+    contents = forms.CharField(label="Contents", required=False, strip=True)
+    priority = forms.ChoiceField(label="Priority", choices=Priority.choices, required=False)
+    repeat = forms.ChoiceField(label="Repeat", choices=REPEAT_CHOICES, required=False)
+    repeat_times = forms.CharField(
+        label="Daily times", required=False, help_text="HH:MM, separated by commas: 08:00, 14:00"
+    )
+    repeat_every = forms.IntegerField(label="Every (minutes)", required=False)
+    repeat_from = forms.CharField(label="Window from", required=False, widget=TimeOfDayInput)
+    repeat_until = forms.CharField(label="Window until", required=False, widget=TimeOfDayInput)
+
+    def __init__(self, data=None, *, sites, site, stations: list[tuple[str, str]], **kwargs):
+        now = timezone.localtime().replace(second=0, microsecond=0)
+        initial = {"site": site.code, "requested_time": now, "priority": Priority.NORMAL}
+        super().__init__(data, initial=initial, **kwargs)
+        self.fields["site"].choices = [(s.code, str(s)) for s in sites]
+        if len(sites) < 2:
+            self.fields["site"].widget = forms.HiddenInput()
+        self.station_codes = _station_codes(stations)
+        self.stop_values = {name: self._submitted(name) for name in STOPS}
+        self.stop_errors: dict[str, dict[int | None, list[str]]] = {name: {} for name in STOPS}
+        for name in ("sender", "receiver", "contents"):
+            self.fields[name].widget.attrs["autocomplete"] = "off"
+
+    def _submitted(self, name: str) -> list[str]:
+        values = [value.strip() for value in self.data.getlist(name)] if self.is_bound else []
+        return values or [""]
+
+    # --- What the template shows -------------------------------------------------------------
+
+    @property
+    def pickup_inputs(self) -> list[StopInput]:
+        return self._inputs("pickup")
+
+    @property
+    def dropoff_inputs(self) -> list[StopInput]:
+        return self._inputs("dropoff")
+
+    @property
+    def pickup_group_errors(self) -> list[str]:
+        return self.stop_errors["pickup"].get(None, [])
+
+    @property
+    def dropoff_group_errors(self) -> list[str]:
+        return self.stop_errors["dropoff"].get(None, [])
+
+    def _inputs(self, name: str) -> list[StopInput]:
+        label = STOPS[name][1]
+        return [
+            StopInput(
+                id=f"id_{name}" if n == 1 else f"id_{name}_{n}",
+                name=name,
+                label=label if n == 1 else f"{label} {n}",
+                value=value,
+                errors=self.stop_errors[name].get(n - 1, []),
+                number=n,
+            )
+            for n, value in enumerate(self.stop_values[name], start=1)
+        ]
+
+    # --- To and from the API -----------------------------------------------------------------
+
+    def api_data(self) -> dict:
+        """The request as the API takes it (call after is_valid())."""
+        data = {
+            "sender": self.cleaned_data["sender"],
+            "receiver": self.cleaned_data["receiver"],
+            "contents": self.cleaned_data["contents"],
+            "priority": self.cleaned_data["priority"] or Priority.NORMAL,
+        }
+        for name, (api_name, _label) in STOPS.items():
+            data[api_name] = [
+                self.station_codes.get(v.casefold(), v) for v in self.stop_values[name]
+            ]
+        if self.cleaned_data["site"]:
+            data["site"] = self.cleaned_data["site"]
+        when = self.cleaned_data["requested_time"]
+        if when is not None and "requested_time" in self.changed_data:
+            data["requested_time"] = when.isoformat()
+        repeat = self._repeat()
+        if repeat is not None:
+            data["repeat"] = repeat
+        return data
+
+    def _repeat(self) -> dict | None:
+        mode, data = self.cleaned_data["repeat"], self.cleaned_data
+        if mode == REPEAT_TIMES:
+            return {"times": [t for t in re.split(r"[,\s]+", data["repeat_times"]) if t]}
+        if mode == REPEAT_EVERY:
+            window = {"from": data["repeat_from"], "until": data["repeat_until"]}
+            repeat = {key: value for key, value in window.items() if value}
+            if data["repeat_every"] is not None:
+                repeat["every_minutes"] = data["repeat_every"]
+            return repeat
+        return None
+
+    def add_api_errors(self, errors: dict) -> None:
+        """Put the API's validation errors next to the form's fields they are about."""
+        self.repeat_mode = self.cleaned_data.get("repeat")
+        for key, problems in errors.items():
+            stop = next((name for name, (api, _) in STOPS.items() if api == key), None)
+            if stop is not None:
+                self._stop_errors(stop, problems)
+            elif key == "repeat":
+                self._repeat_errors(problems)
+            else:
+                self._error(API_FIELDS.get(key), problems)
+
+    def _stop_errors(self, name: str, problems) -> None:
+        if isinstance(problems, dict):  # by index of the stop
+            for index, messages in problems.items():
+                self.stop_errors[name].setdefault(int(index), []).extend(_texts(messages))
+        else:
+            self.stop_errors[name].setdefault(None, []).extend(_texts(problems))
+
+    def _repeat_errors(self, problems) -> None:
+        if not isinstance(problems, dict):
+            self._error("repeat", problems)
+            return
+        whole = "repeat_every" if self.repeat_mode == REPEAT_EVERY else "repeat_times"
+        for key, messages in problems.items():
+            field = REPEAT_FIELDS.get(key, whole)
+            if key == "times" and isinstance(messages, dict):  # by index of the time
+                messages = [text for each in messages.values() for text in _texts(each)]
+            self._error(field, messages)
+
+    def _error(self, field: str | None, problems) -> None:
+        self.add_error(field, _texts(problems))
+
+    @property
+    def has_stop_errors(self) -> bool:
+        return any(self.stop_errors.values())
+
+
+def _station_codes(stations: list[tuple[str, str]]) -> dict[str, str]:
+    """Casefolded station names and codes -> code; a name two stations share is left out."""
+    names: dict[str, list[str]] = {}
+    for code, name in stations:
+        names.setdefault(name.casefold(), []).append(code)
+    codes = {name: found[0] for name, found in names.items() if len(found) == 1}
+    codes.update({code.casefold(): code for code, _name in stations})
+    return codes
+
+
+def _texts(problems) -> list[str]:
+    if isinstance(problems, dict):
+        return [text for each in problems.values() for text in _texts(each)]
+    if isinstance(problems, list | tuple):
+        return [str(problem) for problem in problems]
+    return [str(problems)]
+
+
+class RobotActionForm(forms.Form):
+    """An operator's button on the robot page: Pause, Resume or Return to dock."""
+
+    action = forms.ChoiceField(choices=OperatorActionKind.choices)

@@ -1,0 +1,76 @@
+"""Every live page event's payload, built here and only here (kinds: core/changes.py).
+
+Built from the changed object alone, never a query: robots are published on the heartbeat's hot
+path. The pages' re-read after a reconnect (ui/live/state.py) returns robots in the same shape,
+so one piece of page code (static/js/live.js) applies both.
+"""
+
+from robots.choices import Presence, RobotStatus
+from robots.mapcache import floor_code_by_id, site_map, waypoint_by_id
+
+
+def robot_payload(robot) -> dict:
+    """A robot as the fleet table and the floor map show it (robot.site must be loaded)."""
+    floor = floor_code_by_id(robot.site, robot.floor_id)
+    waypoint = waypoint_by_id(robot.site, robot.waypoint_id)
+    x, y = robot.x, robot.y
+    if (x is None or y is None) and waypoint is not None:
+        x, y = waypoint.x, waypoint.y  # drawn at the waypoint it reported
+    return {
+        "code": robot.code,
+        "presence": str(robot.presence),
+        "presence_label": Presence(robot.presence).label,
+        "status": str(robot.status),
+        "status_label": RobotStatus(robot.status).label,
+        "floor": floor,
+        "floor_name": site_map(robot.site).floor_names.get(floor, "") if floor else "",
+        "waypoint": waypoint.code if waypoint else None,
+        "place": waypoint.label if waypoint else None,
+        "x": x,
+        "y": y,
+        "heading": robot.heading,
+        "battery": None if robot.battery is None else round(robot.battery * 100),
+        "load": robot.load,
+        "capacity": robot.capacity,
+        "errors": list(robot.errors or []),
+        "paused_by_operator": robot.paused_by_operator,
+        "last_seen_at": robot.last_seen_at.isoformat() if robot.last_seen_at else None,
+    }
+
+
+def task_payload(entry) -> dict:
+    """A task's change: `entry` is the TaskTransition just recorded."""
+    task = entry.task
+    return {
+        "code": task.code,
+        "status": task.status,
+        "status_label": task.get_status_display(),
+        "old": entry.old,
+        "cause": entry.cause,
+        "robot": entry.robot.code if entry.robot else None,
+        "at": entry.at.isoformat(),
+    }
+
+
+def lease_payload(lease, *, resource) -> dict:
+    return {
+        "id": lease.public_id,
+        "resource": resource.code,
+        "robot": lease.robot.code,
+        "state": lease.state,
+    }
+
+
+def alert_payload(alert) -> dict:
+    return {
+        "id": alert.pk,
+        "kind": alert.kind,
+        "message": alert.message,
+        "robot": alert.robot.code if alert.robot else None,
+        "task": alert.task or None,
+        "raised_at": alert.raised_at.isoformat(),
+    }
+
+
+def alert_acknowledged_payload(alert) -> dict:
+    return {"id": alert.pk}

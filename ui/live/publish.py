@@ -1,0 +1,57 @@
+"""Live page events: what services report as changed (core/changes.py) goes to the pages
+watching the site, as {"kind", "data"} on their websocket (ui/live/consumers.py), once the
+transaction that made the change commits.
+
+Two groups: every page of a site ("site-<id>"), and the pages of one login session
+("session-<hash>"), which close when it logs out.
+"""
+
+import hashlib
+import logging
+
+from django.db import transaction
+
+from core import changes
+from core.pubsub import group_send
+from ui.live import payloads
+
+logger = logging.getLogger(__name__)
+
+PAYLOADS = {
+    changes.ROBOT: payloads.robot_payload,
+    changes.TASK: payloads.task_payload,
+    changes.LEASE: payloads.lease_payload,
+    changes.ALERT: payloads.alert_payload,
+    changes.ALERT_ACKNOWLEDGED: payloads.alert_acknowledged_payload,
+}
+
+
+def site_group(site_id: int) -> str:
+    return f"site-{site_id}"
+
+
+def session_group(session_key: str) -> str:
+    """The pages' sockets of one login session (the key itself stays out of Redis)."""
+    return f"session-{hashlib.sha256(session_key.encode()).hexdigest()[:32]}"
+
+
+def on_change(*, kind: str, site_id: int, subject, **detail) -> None:
+    """The receiver of core.changes.changed: the payload now (the subject as it is at this
+    point of the transaction), sent after commit."""
+    publish_on_commit(site_id=site_id, kind=kind, data=PAYLOADS[kind](subject, **detail))
+
+
+def publish_on_commit(*, site_id: int, kind: str, data: dict) -> None:
+    """Tell the pages watching site_id that `kind` happened (e.g. "robot", "task", "lease")."""
+    message = {"type": "site.event", "kind": kind, "data": data}
+    transaction.on_commit(lambda: group_send(site_group(site_id), message), robust=True)
+
+
+def on_user_logged_out(sender, request, user, **kwargs) -> None:
+    """Close the pages' sockets of the session that has just logged out (after commit, if any;
+    like every push, a failure is logged and the logout goes ahead)."""
+    session_key = getattr(request, "session", None) and request.session.session_key
+    if session_key:
+        message = {"type": "session.ended"}
+        group = session_group(session_key)
+        transaction.on_commit(lambda: group_send(group, message), robust=True)
