@@ -131,8 +131,11 @@ class HeartbeatSerializer(serializers.Serializer):
 
 
 class PlanStopSerializer(serializers.Serializer):
-    task = serializers.CharField()
-    stop = serializers.IntegerField()
+    """A task's pick-up or drop-off; or, alone in the plan of a robot with nothing left to do,
+    its dock (action "dock": no task or stop)."""
+
+    task = serializers.CharField(required=False, help_text="not in a dock stop")
+    stop = serializers.IntegerField(required=False, help_text="not in a dock stop")
     action = serializers.ChoiceField(choices=["pickup", "dropoff", "dock"])
     waypoint = serializers.CharField()
     via = serializers.ListField(child=serializers.CharField(), required=False)

@@ -50,10 +50,6 @@ class NetworkModel:
             if not 0.0 <= low <= high:
                 raise ValueError(f"{name} must be 0 <= low <= high")
 
-    @property
-    def is_perfect(self) -> bool:
-        return not (self.request_loss or self.response_loss or self.duplicate or any(self.delay))
-
 
 @dataclass
 class NetworkStats:

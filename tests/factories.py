@@ -18,7 +18,8 @@ from robots.models import Robot, Site
 from robots.services import robot_lock, robot_token_issue
 from robots.sitefile import site_load
 
-# A small three-floor hospital with one of each resource kind, and a corridor of capacity 2.
+# A small three-floor hospital with one of each resource kind, and a corridor of capacity 2 (and
+# a fourth floor out of the elevator's reach).
 TINY_SITE = {
     "site": "tiny",
     "name": "Tiny test hospital",
@@ -76,6 +77,8 @@ TINY_SITE = {
                 ["3F-CORR-E", "3F-WARD"],
             ],
         },
+        # A floor the elevator does not serve (nothing can reach it): rides there are refused.
+        {"code": "4F", "level": 4, "waypoints": [{"code": "4F-HALL", "x": 0, "y": 0}]},
     ],
     "resources": [
         {

@@ -54,7 +54,8 @@ class Robot(models.Model):
     unreachable_at = models.DateTimeField(null=True, blank=True)
     offline_at = models.DateTimeField(null=True, blank=True)
 
-    # Set by an operator's Pause or Return to dock, cleared by Resume (robots/operator.py):
+    # Set by an operator's Pause or Return to dock, cleared by Resume (scheduling.services
+    # .operator):
     # the scheduler offers the robot no new task meanwhile, whatever it reports.
     paused_by_operator = models.BooleanField(
         default=False, help_text="held by an operator: no new tasks until resumed"

@@ -7,7 +7,7 @@ from django.test import Client
 from resources.models import Lease
 from tests import factories
 from tests.factories import lease_acquire, lease_enter
-from tests.leases.conftest import holders, resource
+from tests.resources.conftest import holders, resource
 
 
 @pytest.fixture

@@ -5,7 +5,7 @@ from django.test import Client
 
 from tests import factories
 from tests.factories import lease_acquire
-from tests.leases.conftest import acquire, resource
+from tests.resources.conftest import acquire, resource
 
 
 @pytest.fixture

@@ -1,6 +1,5 @@
 """Robots that ask for resources, over real HTTP (protocol v1, "Resources")."""
 
-import copy
 import itertools
 
 import pytest
@@ -78,14 +77,6 @@ class Bot:
 
     def left(self, resource: str) -> list[dict]:
         return self.beat(events=[event("resource_released", resource)])
-
-
-@pytest.fixture
-def site(db):
-    """The tiny test site plus a floor 4F that its elevator does not serve."""
-    floors = copy.deepcopy(factories.TINY_SITE["floors"])
-    floors.append({"code": "4F", "level": 4, "waypoints": [{"code": "4F-HALL", "x": 0, "y": 0}]})
-    return factories.site_create(floors=floors)
 
 
 @pytest.fixture

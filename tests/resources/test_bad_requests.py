@@ -8,7 +8,7 @@ from boards.models import BoardMessage, RobotEvent, RobotRequest
 from resources.leases import lease_sweep
 from resources.models import Lease
 from tests import factories
-from tests.leases.conftest import acquire, event, holders, release
+from tests.resources.conftest import acquire, event, holders, release
 
 
 @pytest.fixture

@@ -6,7 +6,7 @@ import pytest
 
 from resources.models import Lease
 from robots.models import Alert
-from tests.leases.conftest import (
+from tests.resources.conftest import (
     acquire,
     event,
     holders,

@@ -8,7 +8,7 @@ from django.utils import timezone
 from resources.leases import resource_queue, resource_wait_estimate
 from tests import factories
 from tests.factories import lease_acquire, lease_enter, lease_release
-from tests.leases.conftest import resource
+from tests.resources.conftest import resource
 
 SECOND = timedelta(seconds=1)
 

@@ -12,7 +12,7 @@ from resources.choices import HOLDING_LEASE_STATES
 from resources.models import Lease
 from tests import factories
 from tests.conftest import RobotHttp
-from tests.leases.conftest import Bot, acquire, event, holders, lease_of, of_type, release
+from tests.resources.conftest import Bot, acquire, event, holders, lease_of, of_type, release
 
 pytestmark = pytest.mark.slow
 

@@ -1,7 +1,7 @@
 """Grant expiry, the hard limit, force-release and offline robots, with driven time.
 
 Each sweep is given its `now`; deadlines are reached by moving `now` (or a stored time), never
-by sleeping. Leases are made through the services here; tests/leases/test_leases_http.py shows
+by sleeping. Leases are made through the services here; tests/resources/test_leases_http.py shows
 the same flows over HTTP.
 """
 
@@ -21,7 +21,7 @@ from robots.models import Alert, Robot
 from robots.services import presence_sweep
 from tests import factories
 from tests.factories import lease_acquire, lease_enter
-from tests.leases.conftest import holders, messages_about, resource
+from tests.resources.conftest import holders, messages_about, resource
 
 SECOND = timedelta(seconds=1)
 TICK = timedelta(microseconds=1)
