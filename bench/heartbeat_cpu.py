@@ -1,0 +1,113 @@
+"""CPU time the server spends on one heartbeat, measured in-process: steady on a busy machine.
+
+    python bench/heartbeat_cpu.py            # 5 rounds of 1000 heartbeats, PostgreSQL
+    python bench/heartbeat_cpu.py --quick    # 2 rounds of 100: what CI runs
+    python bench/heartbeat_cpu.py --database sqlite:///
+
+bench/heartbeat.py measures what a whole server sustains, and on a shared 2-core machine its
+saturated rows swing with whatever else runs. This one measures the cost of the heartbeat's own
+code path: a robot at its dock heartbeats (no events, acks or requests) through Django's test
+client (middleware, DRF, authentication with the row lock, the board service, the hooks,
+the response) against a fresh database, and the process's CPU time (not wall time, so waiting
+on the database and other processes' load count for little) is divided by the heartbeats. What
+it leaves out is the HTTP server (gunicorn) and the database server's own work.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import statistics
+import sys
+import time
+from pathlib import Path
+
+if __package__ in (None, ""):  # run as a script: make the repository root importable
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from bench.stack import temporary_database
+
+ROOT = Path(__file__).resolve().parent.parent
+SITE_FILE = ROOT / "sites" / "eulji.yaml"
+WARMUP = 200  # heartbeats before measuring: caches (site map, router, statements) filled
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="2 rounds of 100: for CI")
+    parser.add_argument(
+        "--database",
+        default=os.environ.get(
+            "DATABASE_URL", "postgres://hospital_delivery@127.0.0.1:5432/postgres"
+        ),
+        help="server (and role) for the throwaway database",
+    )
+    options = parser.parse_args()
+    rounds, per_round = (2, 100) if options.quick else (5, 1000)
+    with temporary_database(options.database) as url:
+        samples = measure(url, rounds=rounds, per_round=per_round)
+    today = datetime.datetime.now(datetime.UTC).date()
+    print(f"heartbeat CPU benchmark, {today} (UTC), Python {platform.python_version()}")
+    print(f"{rounds} rounds of {per_round} heartbeats (after {WARMUP} to warm up)")
+    print("CPU ms per heartbeat: " + " ".join(f"{sample:.3f}" for sample in samples))
+    print(f"median {statistics.median(samples):.3f} ms")
+
+
+def measure(database_url: str, *, rounds: int, per_round: int) -> list[float]:
+    os.environ.update(
+        DATABASE_URL=database_url,
+        DJANGO_SETTINGS_MODULE="hospital_delivery.settings",
+        ALLOWED_HOSTS="testserver",
+        LOG_LEVEL="WARNING",
+    )
+    os.environ.setdefault("SECRET_KEY", "bench-only-secret")
+    import django
+
+    django.setup()
+    from django.test import Client
+
+    from robots.models import Robot
+    from robots.services import robot_token_issue
+    from robots.sitefile import site_file_read, site_load
+
+    site_load(data=site_file_read(SITE_FILE))
+    token = robot_token_issue(robot=Robot.objects.get(code="R1"))
+    beat = _Heartbeats(Client(), token)
+    beat.send(WARMUP)
+    samples = []
+    for _ in range(rounds):
+        started = time.process_time()
+        beat.send(per_round)
+        samples.append((time.process_time() - started) / per_round * 1000)
+    return samples
+
+
+class _Heartbeats:
+    """Robot R1 at its dock, heartbeating with rising seq and checking every answer."""
+
+    def __init__(self, client, token: str):
+        self.client, self.token, self.seq = client, token, 0
+
+    def send(self, count: int) -> None:
+        for _ in range(count):
+            self.seq += 1
+            response = self.client.post(
+                "/api/v1/robots/R1/heartbeat",
+                json.dumps(self._body()),
+                content_type="application/json",
+                headers={"Authorization": f"Bearer {self.token}"},
+            )
+            if response.status_code != 200:
+                raise SystemExit(f"heartbeat {self.seq}: {response.status_code} {response.content}")
+
+    def _body(self) -> dict:
+        state = {"status": "idle", "floor": "15F", "waypoint": "15F-DOCK-1", "battery": 0.9}
+        state.update(load=0, plan_version=0)
+        return {"boot_id": "bench", "seq": self.seq, "state": state, "events": [], "acks": []}
+
+
+if __name__ == "__main__":
+    main()
