@@ -1,5 +1,3 @@
-import json
-
 from django.conf import settings
 from django.db import transaction
 from drf_spectacular.utils import OpenApiResponse, extend_schema
@@ -10,6 +8,7 @@ from rest_framework.views import APIView
 from boards.serializers import ErrorSerializer, HeartbeatResponseSerializer, HeartbeatSerializer
 from boards.services import HeartbeatRejected, heartbeat_apply
 from boards.wire import heartbeat_reply_wire
+from hospital_delivery.jsonbody import json_parse
 from robots.authentication import IsRobotInUrl, RobotTokenLockingAuthentication
 from robots.sitemap import site_map
 
@@ -33,10 +32,7 @@ def read_json_body(request, *, limit: int):
         raw = request.read(limit + 1)
     if len(raw) > limit:
         raise PayloadTooLarge(f"body is over the {limit}-byte limit")
-    try:
-        return json.loads(raw)
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise exceptions.ParseError(f"body is not valid UTF-8 JSON: {exc}") from None
+    return json_parse(raw)
 
 
 class HeartbeatView(APIView):

@@ -150,7 +150,10 @@ def heartbeat_body(seq: int = 1, *, boot_id: str = "boot-1", **overrides) -> dic
         "plan_version": 0,
         "errors": [],
     }
-    state.update(overrides.pop("state", {}))
+    given = overrides.pop("state", {})
+    if given.get("floor", "1F") != "1F" and "waypoint" not in given:
+        state["waypoint"] = None  # the default waypoint is on 1F (protocol: on state.floor)
+    state.update(given)
     body = {
         "boot_id": boot_id,
         "seq": seq,

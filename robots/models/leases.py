@@ -12,6 +12,7 @@ from django.db import models
 from django.db.models import Case, Count, OuterRef, Q, Subquery, Value, When
 from django.db.models.functions import Coalesce
 
+from hospital_delivery.codes import code_pk
 from robots.choices import HOLDING_LEASE_STATES, LIVE_LEASE_STATES, LeaseEndCause, LeaseState
 from robots.models.fleet import Robot
 from robots.models.sites import Floor, Resource
@@ -124,8 +125,7 @@ class Lease(models.Model):
 
     @staticmethod
     def pk_from_public_id(public_id: str) -> int | None:
-        digits = public_id.removeprefix(LEASE_ID_PREFIX)
-        return int(digits) if public_id != digits and digits.isdigit() else None
+        return code_pk(public_id, LEASE_ID_PREFIX)
 
     @property
     def board_key(self) -> str:
