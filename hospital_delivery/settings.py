@@ -33,6 +33,7 @@ INSTALLED_APPS = [
     "django.contrib.staticfiles",
     "rest_framework",
     "drf_spectacular",
+    "drf_spectacular_sidecar",
     "axes",
     "channels",
     "hospital_delivery",
@@ -172,6 +173,12 @@ SPECTACULAR_SETTINGS = {
     "message board (protocol v1), the device catalog and delivery tasks.",
     "VERSION": "1",
     "SERVE_INCLUDE_SCHEMA": False,
+    # Like every page, the schema needs a login; the docs page loads Swagger UI from our own
+    # static files (drf-spectacular-sidecar), so it works on an intranet without internet.
+    "SERVE_PERMISSIONS": ["rest_framework.permissions.IsAuthenticated"],
+    "SWAGGER_UI_DIST": "SIDECAR",
+    "SWAGGER_UI_FAVICON_HREF": "SIDECAR",
+    "REDOC_DIST": "SIDECAR",
     "COMPONENT_SPLIT_REQUEST": True,
 }
 
