@@ -22,6 +22,30 @@ if not SECRET_KEY:
 ALLOWED_HOSTS = env_list("ALLOWED_HOSTS", ["localhost", "127.0.0.1", "[::1]"])
 CSRF_TRUSTED_ORIGINS = env_list("CSRF_TRUSTED_ORIGINS", [])
 
+# Serving over HTTPS (README, "Production"): HTTPS=true makes cookies Secure, sends HSTS and
+# redirects plain HTTP (except /healthz, which load balancers probe). Behind a TLS proxy,
+# SECURE_PROXY_SSL_HEADER names the header it sets, e.g. X-Forwarded-Proto=https (only
+# where the proxy overwrites that header: a client could send it otherwise).
+HTTPS = env_bool("HTTPS", False)
+SESSION_COOKIE_SECURE = CSRF_COOKIE_SECURE = HTTPS
+SECURE_SSL_REDIRECT = env_bool("SECURE_SSL_REDIRECT", HTTPS)
+SECURE_REDIRECT_EXEMPT = [r"^healthz$"]
+SECURE_HSTS_SECONDS = env_int("HSTS_SECONDS", 31536000 if HTTPS else 0, minimum=0)
+SECURE_HSTS_INCLUDE_SUBDOMAINS = env_bool("HSTS_INCLUDE_SUBDOMAINS", True)
+SECURE_HSTS_PRELOAD = env_bool("HSTS_PRELOAD", True)  # no effect unless submitted to the list
+_proxy_header = env_str("SECURE_PROXY_SSL_HEADER", "")
+if _proxy_header:
+    _name, _, _value = _proxy_header.partition("=")
+    if not (_name.strip() and _value.strip()):
+        raise ImproperlyConfigured(
+            f"SECURE_PROXY_SSL_HEADER={_proxy_header!r}: use HEADER=value (X-Forwarded-Proto=https)"
+        )
+    SECURE_PROXY_SSL_HEADER = (
+        "HTTP_" + _name.strip().upper().replace("-", "_"),
+        _value.strip(),
+    )
+SESSION_COOKIE_HTTPONLY = True
+
 INSTALLED_APPS = [
     "daphne",
     "django.contrib.admin",
@@ -36,6 +60,7 @@ INSTALLED_APPS = [
     "drf_spectacular_sidecar",
     "axes",
     "channels",
+    "csp",
     "hospital_delivery",
     "robots",
     "boards",
@@ -52,6 +77,7 @@ MIDDLEWARE = [
     "django.contrib.auth.middleware.AuthenticationMiddleware",
     "django.contrib.messages.middleware.MessageMiddleware",
     "django.middleware.clickjacking.XFrameOptionsMiddleware",
+    "csp.middleware.CSPMiddleware",
     # Last, as django-axes requires: it answers a locked-out login with the lockout page.
     "axes.middleware.AxesMiddleware",
 ]
@@ -104,6 +130,26 @@ REDIS_URL = env_str("REDIS_URL", "redis://127.0.0.1:6379/0")
 # WEBSOCKET_URL (e.g. wss://fleet.example.org, behind a proxy) overrides that.
 WEBSOCKET_URL = env_str("WEBSOCKET_URL", "")
 WEBSOCKET_PORT = env_int("WEBSOCKET_PORT", env_int("PORT_WS", 8001, minimum=1), minimum=1)
+
+# Content-Security-Policy (django-csp): scripts and style sheets from our own files only, no
+# inline <script> or <style>. Style attributes stay allowed: the pages draw battery bars and
+# map markers with them (style="--level: 80%"), which run no code. Websockets go to daphne on
+# another port (or WEBSOCKET_URL), which 'self' does not cover.
+_websocket_sources = [WEBSOCKET_URL] if WEBSOCKET_URL else ["ws:", "wss:"]
+CONTENT_SECURITY_POLICY = {
+    "DIRECTIVES": {
+        "default-src": ["'self'"],
+        "script-src": ["'self'"],
+        "style-src": ["'self'"],
+        "style-src-attr": ["'unsafe-inline'"],
+        "img-src": ["'self'", "data:"],
+        "connect-src": ["'self'", *_websocket_sources],
+        "object-src": ["'none'"],
+        "base-uri": ["'self'"],
+        "form-action": ["'self'"],
+        "frame-ancestors": ["'none'"],
+    },
+}
 
 CACHES = {
     "default": {"BACKEND": "django.core.cache.backends.locmem.LocMemCache"},
