@@ -44,6 +44,12 @@ def session_sockets_close(*, session_key: str) -> None:
     transaction.on_commit(lambda: _send(session_group(session_key), message), robust=True)
 
 
+def robot_sockets_close_on_commit(*, robot_code: str, token_issued_at) -> None:
+    """Close the robot's push sockets opened with a token older than the one just issued."""
+    message = {"type": "robot.token_revoked", "issued_at": token_issued_at.isoformat()}
+    transaction.on_commit(lambda: _send(robot_group(robot_code), message), robust=True)
+
+
 def publish_on_commit(*, site_id: int, kind: str, data: dict) -> None:
     """Tell the pages watching site_id that `kind` happened (e.g. "robot", "task", "lease")."""
     message = {"type": "site.event", "kind": kind, "data": data}

@@ -13,7 +13,7 @@ from django.db import transaction
 from django.db.models import Q, QuerySet
 from django.utils import timezone
 
-from boards.events import publish_on_commit
+from boards.events import publish_on_commit, robot_sockets_close_on_commit
 from hospital_delivery.tokens import token_new
 from robots.choices import Presence
 from robots.models import PresenceChange, Robot, RobotBoot, Site
@@ -36,6 +36,8 @@ def robot_token_issue(*, robot: Robot) -> str:
     robot.token_hash = hashed
     robot.token_issued_at = timezone.now()
     robot.save(update_fields=["token_hash", "token_issued_at"])
+    # A socket is authenticated once, when it opens: the old token's must close now.
+    robot_sockets_close_on_commit(robot_code=robot.code, token_issued_at=robot.token_issued_at)
     return token
 
 
