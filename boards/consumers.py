@@ -13,6 +13,7 @@ from channels.generic.websocket import AsyncJsonWebsocketConsumer
 
 from boards.events import robot_group, session_group, site_group
 from hospital_delivery.access import is_member
+from hospital_delivery.membership import may_see_site
 from hospital_delivery.tokens import bearer_token
 from robots.models import Site
 from robots.services import robot_authenticate
@@ -113,4 +114,6 @@ def _site_access(user, code: str) -> tuple[int | None, int | None]:
     site_id = Site.objects.filter(code=code).values_list("pk", flat=True).first()
     if site_id is None:
         return CLOSE_NOT_FOUND, None
+    if not may_see_site(user, site_id):
+        return CLOSE_FORBIDDEN, None
     return None, site_id

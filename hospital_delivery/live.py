@@ -12,6 +12,7 @@ from django.shortcuts import get_object_or_404
 from django.views.decorators.cache import never_cache
 
 from hospital_delivery.access import member_required
+from hospital_delivery.membership import site_required
 from robots import pages as robot_pages
 from robots.models import Site
 from scheduling import pages as scheduling_pages
@@ -24,6 +25,7 @@ DEFAULT_PARTS = "schedule,fleet,resources,alerts"  # "robot" needs ?robot=<code>
 @member_required
 def state(request, site: str):
     site = get_object_or_404(Site, code=site)
+    site_required(request.user, site.pk, f"site {site.code!r}")
     wanted = request.GET.get("parts", DEFAULT_PARTS).split(",")
     unknown = sorted(set(wanted) - set(PARTS))
     if unknown:
@@ -38,7 +40,7 @@ def state(request, site: str):
     if "alerts" in wanted:
         parts["alerts"] = robot_pages.alerts_part(request)
     if "robot" in wanted:
-        found = robot_pages.robot_part(request, request.GET.get("robot", ""))
+        found = robot_pages.robot_part(request, request.GET.get("robot", ""), site)
         if found is None:
             raise Http404("no such robot")
         parts["robot"], wire = found

@@ -9,6 +9,7 @@ rendered by the *_part functions below, for the page and for its re-read after a
 from dataclasses import dataclass
 
 from django.contrib import messages
+from django.core.exceptions import PermissionDenied
 from django.http import Http404, HttpResponseBadRequest
 from django.shortcuts import get_object_or_404, redirect, render
 from django.template.loader import render_to_string
@@ -16,6 +17,7 @@ from django.utils.http import url_has_allowed_host_and_scheme
 from django.views.decorators.http import require_POST
 
 from hospital_delivery.access import member_required, operator_required
+from hospital_delivery.membership import site_required, sites_of
 from robots.alerts import alert_acknowledge
 from robots.choices import OperatorActionKind
 from robots.forms import RobotActionForm
@@ -37,9 +39,12 @@ from scheduling.selectors import robot_plan, tasks_by_robot
 
 def page_site(request) -> tuple[Site, list[Site]]:
     """The site a page is about (?site=<code>, else the first) and every site, for a choice."""
-    sites = sites_all()
-    if not sites:
+    every = sites_all()
+    if not every:
         raise Http404("no site is loaded yet (manage.py load_site FILE)")
+    sites = sites_of(request.user, every)
+    if not sites:
+        raise PermissionDenied("your account belongs to no site: ask an administrator")
     code = request.POST.get("site") or request.GET.get("site")
     if not code:
         return sites[0], sites
@@ -76,6 +81,7 @@ def robot_page(request, code: str):
     detail = robot_detail(code=code)
     if detail is None:
         raise Http404(f"no robot {code!r}")
+    site_required(request.user, detail.robot.site_id, f"robot {code!r}")
     return render(request, "robots/robot.html", _robot_context(detail))
 
 
@@ -83,6 +89,7 @@ def robot_page(request, code: str):
 @operator_required
 def robot_action_post(request, code: str):
     robot = get_object_or_404(Robot, code=code)
+    site_required(request.user, robot.site_id, f"robot {code!r}")
     form = RobotActionForm(request.POST)
     if not form.is_valid():
         return HttpResponseBadRequest("unknown action")
@@ -97,6 +104,7 @@ def robot_action_post(request, code: str):
 @operator_required
 def alert_acknowledge_post(request, pk: int):
     alert = get_object_or_404(Alert, pk=pk)
+    site_required(request.user, alert.site_id, "such alert")
     if not alert_acknowledge(alert=alert, user=request.user):
         messages.info(request, "Someone had already acknowledged that alert.")
     back = request.POST.get("next", "")
@@ -120,10 +128,10 @@ def resources_part(request, site: Site) -> str:
     return render_to_string("robots/_resources.html", context, request=request)
 
 
-def robot_part(request, code: str) -> tuple[str, dict] | None:
-    """The robot page's panels, and the robot's live state."""
+def robot_part(request, code: str, site: Site) -> tuple[str, dict] | None:
+    """The robot page's panels, and the robot's live state (None: no such robot at `site`)."""
     detail = robot_detail(code=code)
-    if detail is None:
+    if detail is None or detail.robot.site_id != site.pk:
         return None
     context = _robot_context(detail)
     html = render_to_string("robots/_robot_panels.html", context, request=request)

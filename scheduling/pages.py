@@ -15,6 +15,7 @@ from django.utils import timezone
 from django.views.decorators.http import require_POST
 
 from hospital_delivery.access import can_cancel, member_required
+from hospital_delivery.membership import site_required
 from robots.models import Site
 from robots.pages import page_site
 from scheduling.forms import DeliveryRequestForm
@@ -60,6 +61,7 @@ def task_history(request, code: str):
     task = task_detail(code=code)
     if task is None:
         raise Http404(f"no task {code!r}")
+    site_required(request.user, task.site_id, f"task {code!r}")
     context = {"page_site": task.site, "task": task, "can_cancel": _can_cancel(request.user, task)}
     if request.GET.get("partial"):
         return render(request, "scheduling/_task_history.html", context)
@@ -70,6 +72,7 @@ def task_history(request, code: str):
 @member_required
 def task_cancel_post(request, code: str):
     task = get_object_or_404(Task.objects.with_code(code).select_related("site"))
+    site_required(request.user, task.site_id, f"task {code!r}")
     if not can_cancel(request.user, task):
         raise PermissionDenied("only operators may cancel other people's deliveries")
     try:

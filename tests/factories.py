@@ -7,7 +7,8 @@ import uuid
 from django.contrib.auth import get_user_model
 from django.contrib.auth.models import Group
 
-from hospital_delivery.models import ApiToken
+from hospital_delivery.access import GROUPS
+from hospital_delivery.models import ApiToken, SiteMembership
 from robots.models import Robot, Site
 from robots.services import robot_token_issue
 from robots.sites import site_load
@@ -101,10 +102,18 @@ TINY_SITE = {
 _robot_numbers = itertools.count(1)
 
 
-def site_create(**overrides) -> Site:
+def site_create(*, members=None, **overrides) -> Site:
+    """The tiny site; every nurse and operator made so far is a member of it unless `members`
+    names who is."""
     data = copy.deepcopy(TINY_SITE)
     data.update(overrides)
-    return site_load(data=data)
+    site = site_load(data=data)
+    if members is None:
+        members = get_user_model().objects.filter(groups__name__in=GROUPS).distinct()
+    SiteMembership.objects.bulk_create(
+        [SiteMembership(user=user, site=site) for user in members], ignore_conflicts=True
+    )
+    return site
 
 
 def robot_create(site: Site, code: str | None = None, **fields) -> Robot:
@@ -126,14 +135,17 @@ def staff_create(username: str = "operator", **fields):
 PASSWORD = "pw-12345!"
 
 
-def user_create(username: str, *groups: str, **fields):
-    """A user of the pages in `groups` ("nurse", "operator"; none: may not use them).
+def user_create(username: str, *groups: str, sites=None, **fields):
+    """A user of the pages in `groups` ("nurse", "operator"; none: may not use them), a member
+    of `sites` (default: every site made so far; site_create adds them to later ones).
 
     The groups come from a data migration, but transactional tests flush them: made if missing.
     """
     user = get_user_model().objects.create_user(username=username, password=PASSWORD, **fields)
     for name in groups:
         user.groups.add(Group.objects.get_or_create(name=name)[0])
+    for site in Site.objects.all() if sites is None else sites:
+        SiteMembership.objects.create(user=user, site=site)
     return user
 
 
