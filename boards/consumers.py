@@ -3,6 +3,7 @@ ever carries wake-ups (boards/push.py), never board contents. The consumer authe
 robot, joins its group and forwards; it never queries beyond authentication.
 """
 
+from datetime import datetime
 from urllib.parse import parse_qs
 
 from channels.db import database_sync_to_async
@@ -38,6 +39,7 @@ class RobotPushConsumer(AsyncJsonWebsocketConsumer):
         elif robot.code != code:
             await self.close(code=CLOSE_FORBIDDEN)
         else:
+            self.token_issued_at = robot.token_issued_at
             self.group = robot_group(code)
             await self.channel_layer.group_add(self.group, self.channel_name)
 
@@ -50,3 +52,10 @@ class RobotPushConsumer(AsyncJsonWebsocketConsumer):
 
     async def robot_wake(self, event):
         await self.send_json({"type": "wake", "message": event["message"]})
+
+    async def robot_token_revoked(self, event):
+        """The robot's token was rotated (robot_token_issue): a socket of an older token closes;
+        one opened with the new token in the meantime stays."""
+        rotated_at = datetime.fromisoformat(event["issued_at"])
+        if self.token_issued_at is None or self.token_issued_at < rotated_at:
+            await self.close(code=CLOSE_UNAUTHORIZED)

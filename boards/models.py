@@ -3,6 +3,7 @@ from django.db.models import Q
 from django.utils import timezone
 
 from boards.choices import EventType, MessageType, RequestType
+from core.codes import code_pk
 
 MESSAGE_ID_PREFIX = "m-"
 
@@ -57,10 +58,7 @@ class BoardMessage(models.Model):
 
     @staticmethod
     def pk_from_public_id(public_id: str) -> int | None:
-        digits = public_id.removeprefix(MESSAGE_ID_PREFIX)
-        if public_id == digits or not digits.isdigit():
-            return None
-        return int(digits)
+        return code_pk(public_id, MESSAGE_ID_PREFIX)
 
     @property
     def is_pending(self) -> bool:

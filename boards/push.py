@@ -32,5 +32,13 @@ def wake_now(*, robot_code: str, message_id: str) -> None:
         logger.exception("waking %s failed", robot_code)
 
 
+def robot_sockets_close(*, robot) -> None:
+    """Close, after commit, the robot's push sockets opened with a token older than its current
+    one (a receiver of robots.hooks.token_issued); boards/consumers.py decides by the time."""
+    message = {"type": "robot.token_revoked", "issued_at": robot.token_issued_at.isoformat()}
+    group = robot_group(robot.code)
+    transaction.on_commit(lambda: group_send(group, message), robust=True)
+
+
 def _wake(robot_code: str, message_id: str) -> None:
     group_send(robot_group(robot_code), {"type": "robot.wake", "message": message_id})

@@ -69,6 +69,9 @@ class HeartbeatStateSerializer(SiteCodesMixin, serializers.Serializer):
     def validate(self, attrs):
         attrs["floor_id"] = self.site_map.floor_ids[attrs["floor"]]
         waypoint = attrs.get("waypoint")
+        if waypoint and self.site_map.waypoints[waypoint].floor != attrs["floor"]:
+            where = self.site_map.waypoints[waypoint].floor
+            raise serializers.ValidationError({"waypoint": f"{waypoint!r} is on {where}, not here"})
         attrs["waypoint_id"] = self.site_map.waypoints[waypoint].id if waypoint else None
         return attrs
 

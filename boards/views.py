@@ -1,5 +1,3 @@
-import json
-
 from django.conf import settings
 from django.db import transaction
 from drf_spectacular.utils import OpenApiResponse, extend_schema
@@ -11,6 +9,7 @@ from boards.protocol import heartbeat_reply_wire
 from boards.serializers import HeartbeatResponseSerializer, HeartbeatSerializer
 from boards.services import HeartbeatRejected, heartbeat_apply
 from core.errors import ErrorSerializer
+from core.jsonbody import json_parse
 from robots.authentication import IsRobotInUrl, RobotTokenLockingAuthentication
 from robots.mapcache import site_map
 
@@ -34,10 +33,7 @@ def read_json_body(request, *, limit: int):
         raw = request.read(limit + 1)
     if len(raw) > limit:
         raise PayloadTooLarge(f"body is over the {limit}-byte limit")
-    try:
-        return json.loads(raw)
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise exceptions.ParseError(f"body is not valid UTF-8 JSON: {exc}") from None
+    return json_parse(raw)
 
 
 class HeartbeatView(APIView):

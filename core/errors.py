@@ -4,6 +4,7 @@ Field errors are flattened to dotted paths ("state.battery", "events[2].type") s
 always sees which field was wrong, however deeply it was nested.
 """
 
+from django.core.exceptions import RequestDataTooBig
 from rest_framework import exceptions, serializers, status
 from rest_framework.response import Response
 from rest_framework.views import exception_handler as drf_exception_handler
@@ -42,7 +43,13 @@ def flatten_errors(detail, prefix: str = "") -> dict[str, list[str]]:
                 flat.update(flatten_errors(item, f"{prefix}[{index}]"))
         return flat
     messages = detail if isinstance(detail, list) else [detail]
-    return {prefix or "body": [str(message) for message in messages]}
+    return {prefix or "body": [printable(str(message)) for message in messages]}
+
+
+def printable(text: str) -> str:
+    """`text` without lone surrogates (shown as \\udxxx): messages may quote what a client sent,
+    and the renderer cannot encode those."""
+    return text.encode("utf-8", "backslashreplace").decode("utf-8")
 
 
 def error_response(code: str, detail, status_code: int, headers=None) -> Response:
@@ -50,15 +57,21 @@ def error_response(code: str, detail, status_code: int, headers=None) -> Respons
 
 
 def exception_handler(exc, context):
+    if isinstance(exc, RequestDataTooBig):
+        # Over DATA_UPLOAD_MAX_MEMORY_SIZE: Django's own answer would be an HTML 400.
+        return error_response(
+            "too_large", {"body": [str(exc)]}, status.HTTP_413_REQUEST_ENTITY_TOO_LARGE
+        )
     response = drf_exception_handler(exc, context)
     if response is None:
         return None
     if isinstance(exc, exceptions.ValidationError):
         detail = flatten_errors(exc.detail)
     elif isinstance(exc, exceptions.ParseError):
-        return error_response("invalid_json", {"body": [str(exc.detail)]}, response.status_code)
+        return error_response("invalid_json", flatten_errors(exc.detail), response.status_code)
     else:
-        detail = str(exc.detail) if hasattr(exc, "detail") else response.data
+        # Django's Http404 and PermissionDenied carry no `detail`: DRF put theirs in the body.
+        detail = printable(str(getattr(exc, "detail", None) or response.data["detail"]))
     code = ERROR_CODES.get(response.status_code, getattr(exc, "default_code", "error"))
     return error_response(code, detail, response.status_code, headers=dict(response.headers))
 

@@ -13,6 +13,14 @@ def _is_number(value) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool)
 
 
+def _is_finite(value: int | float) -> bool:
+    # math.isfinite converts to float first, which overflows on integers beyond 1e308.
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
 class StrictCharField(serializers.CharField):
     default_error_messages = {"invalid": "Must be a string."}
 
@@ -35,7 +43,7 @@ class StrictFloatField(serializers.FloatField):
     default_error_messages = {"invalid": "Must be a finite number."}
 
     def to_internal_value(self, data):
-        if not _is_number(data) or not math.isfinite(data):
+        if not _is_number(data) or not _is_finite(data):
             self.fail("invalid")
         return super().to_internal_value(data)
 

@@ -10,10 +10,11 @@ answers.
 
 from django.contrib.auth.signals import user_logged_out
 
+from boards import push
 from boards.hooks import heartbeat_applied
 from core.changes import changed
 from resources import receivers as resources
-from robots.hooks import presence_changed
+from robots.hooks import presence_changed, token_issued
 from scheduling import receivers as scheduling
 from ui.live import publish
 
@@ -25,6 +26,8 @@ def connect() -> None:
     heartbeat_applied.connect(resources.on_heartbeat_applied, scheduling.on_heartbeat_applied)
     # A robot gone offline leaves the lease queues it waits in, then gives back its tasks.
     presence_changed.connect(resources.on_presence_changed, scheduling.on_presence_changed)
+    # A robot's new token closes the push sockets opened with its old one.
+    token_issued.connect(push.robot_sockets_close)
     # Whatever changed that people can see goes to the site's live pages after commit.
     changed.connect(publish.on_change)
     # Logging out closes that session's live pages (Django's own signal).

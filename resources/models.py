@@ -12,6 +12,7 @@ from django.db import models
 from django.db.models import Case, Count, OuterRef, Q, Subquery, Value, When
 from django.db.models.functions import Coalesce
 
+from core.codes import code_pk
 from resources.choices import HOLDING_LEASE_STATES, LIVE_LEASE_STATES, LeaseEndCause, LeaseState
 from robots.models import Floor, Resource, Robot
 
@@ -123,8 +124,7 @@ class Lease(models.Model):
 
     @staticmethod
     def pk_from_public_id(public_id: str) -> int | None:
-        digits = public_id.removeprefix(LEASE_ID_PREFIX)
-        return int(digits) if public_id != digits and digits.isdigit() else None
+        return code_pk(public_id, LEASE_ID_PREFIX)
 
     @property
     def board_key(self) -> str:

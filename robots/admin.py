@@ -18,6 +18,7 @@ from robots.models import (
     ResourceWaypoint,
     Robot,
     Site,
+    SiteMembership,
     Waypoint,
 )
 from robots.services import robot_token_issue
@@ -208,3 +209,13 @@ class AlertAdmin(admin.ModelAdmin):
     def acknowledge(self, request, queryset):
         count = sum(alert_acknowledge(alert=alert, user=request.user) for alert in queryset)
         self.message_user(request, f"Acknowledged {count} alert(s).")
+
+
+@admin.register(SiteMembership)
+class SiteMembershipAdmin(admin.ModelAdmin):
+    """Who works at which site (staff users and superusers see every site without one)."""
+
+    list_display = ["user", "site"]
+    list_filter = ["site"]
+    search_fields = ["user__username"]
+    autocomplete_fields = ["user"]

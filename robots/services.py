@@ -16,7 +16,7 @@ from django.utils import timezone
 from core import changes
 from core.tokens import token_new
 from robots.choices import Presence
-from robots.hooks import presence_changed
+from robots.hooks import presence_changed, token_issued
 from robots.models import PresenceChange, Robot, RobotBoot, Site
 from robots.selectors import available_robots
 
@@ -39,6 +39,7 @@ def robot_token_issue(*, robot: Robot) -> str:
     robot.token_hash = hashed
     robot.token_issued_at = timezone.now()
     robot.save(update_fields=["token_hash", "token_issued_at"])
+    token_issued(robot=robot)  # the push channel closes sockets opened with the old token
     return token
 
 

@@ -11,10 +11,11 @@ from django.utils import timezone
 
 from boards.serializers import HeartbeatSerializer
 from boards.services import heartbeat_apply
+from core.access import GROUPS
 from hospital_delivery.models import ApiToken
 from resources.models import Lease
 from robots.mapcache import floor_code_by_id, site_map
-from robots.models import Robot, Site
+from robots.models import Robot, Site, SiteMembership
 from robots.services import robot_lock, robot_token_issue
 from robots.sitefile import site_load
 
@@ -110,10 +111,18 @@ TINY_SITE = {
 _robot_numbers = itertools.count(1)
 
 
-def site_create(**overrides) -> Site:
+def site_create(*, members=None, **overrides) -> Site:
+    """The tiny site; every nurse and operator made so far is a member of it unless `members`
+    names who is."""
     data = copy.deepcopy(TINY_SITE)
     data.update(overrides)
-    return site_load(data=data)
+    site = site_load(data=data)
+    if members is None:
+        members = get_user_model().objects.filter(groups__name__in=GROUPS).distinct()
+    SiteMembership.objects.bulk_create(
+        [SiteMembership(user=user, site=site) for user in members], ignore_conflicts=True
+    )
+    return site
 
 
 def robot_create(site: Site, code: str | None = None, **fields) -> Robot:
@@ -135,14 +144,17 @@ def staff_create(username: str = "operator", **fields):
 PASSWORD = "pw-12345!"
 
 
-def user_create(username: str, *groups: str, **fields):
-    """A user of the pages in `groups` ("nurse", "operator"; none: may not use them).
+def user_create(username: str, *groups: str, sites=None, **fields):
+    """A user of the pages in `groups` ("nurse", "operator"; none: may not use them), a member
+    of `sites` (default: every site made so far; site_create adds them to later ones).
 
     The groups come from a data migration, but transactional tests flush them: made if missing.
     """
     user = get_user_model().objects.create_user(username=username, password=PASSWORD, **fields)
     for name in groups:
         user.groups.add(Group.objects.get_or_create(name=name)[0])
+    for site in Site.objects.all() if sites is None else sites:
+        SiteMembership.objects.create(user=user, site=site)
     return user
 
 
@@ -159,7 +171,10 @@ def heartbeat_body(seq: int = 1, *, boot_id: str = "boot-1", **overrides) -> dic
         "plan_version": 0,
         "errors": [],
     }
-    state.update(overrides.pop("state", {}))
+    given = overrides.pop("state", {})
+    if given.get("floor", "1F") != "1F" and "waypoint" not in given:
+        state["waypoint"] = None  # the default waypoint is on 1F (protocol: on state.floor)
+    state.update(given)
     body = {
         "boot_id": boot_id,
         "seq": seq,

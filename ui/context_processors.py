@@ -4,6 +4,7 @@ open alerts (one query, and only when the page shows them)."""
 from django.conf import settings
 
 from core.access import is_member, is_operator
+from robots.membership import member_site_ids
 from robots.selectors import alerts_open
 
 
@@ -17,5 +18,11 @@ def pages(request) -> dict:
         "user_is_member": member,
         "user_is_operator": member and is_operator(user),
         # A lazy queryset: evaluated (once) only by a template that lists the alerts.
-        "open_alerts": alerts_open() if member else (),
+        "open_alerts": _alerts_of(user) if member else (),
     }
+
+
+def _alerts_of(user):
+    """Open alerts of the user's sites (a lazy queryset)."""
+    ids = member_site_ids(user)
+    return alerts_open() if ids is None else alerts_open().filter(site_id__in=ids)

@@ -13,6 +13,7 @@ from django.urls import reverse
 from django.views.decorators.http import require_POST
 
 from core.access import can_cancel, member_required
+from robots.membership import site_required
 from robots.models import Site
 from scheduling.models import Task
 from scheduling.selectors import stations_for_site, task_detail
@@ -59,6 +60,7 @@ def task_history(request, code: str):
     task = task_detail(code=code)
     if task is None:
         raise Http404(f"no task {code!r}")
+    site_required(request.user, task.site_id, f"task {code!r}")
     context = {
         "page_site": task.site,
         "task": task,
@@ -73,6 +75,7 @@ def task_history(request, code: str):
 @member_required
 def task_cancel_post(request, code: str):
     task = get_object_or_404(Task.objects.with_code(code).select_related("site"))
+    site_required(request.user, task.site_id, f"task {code!r}")
     if not can_cancel(request.user, task):
         raise PermissionDenied("only operators may cancel other people's deliveries")
     try:

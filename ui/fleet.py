@@ -15,6 +15,7 @@ from django.views.decorators.http import require_POST
 
 from core.access import member_required, operator_required
 from robots.alerts import alert_acknowledge
+from robots.membership import site_required
 from robots.models import Alert, Robot, Site
 from robots.selectors import fleet_snapshot
 from scheduling.choices import OperatorActionKind
@@ -53,6 +54,7 @@ def robot_page(request, code: str):
     detail = robot_detail(code=code)
     if detail is None:
         raise Http404(f"no robot {code!r}")
+    site_required(request.user, detail.robot.site_id, f"robot {code!r}")
     return render(request, "robots/robot.html", robot_context(detail))
 
 
@@ -60,6 +62,7 @@ def robot_page(request, code: str):
 @operator_required
 def robot_action_post(request, code: str):
     robot = get_object_or_404(Robot, code=code)
+    site_required(request.user, robot.site_id, f"robot {code!r}")
     form = RobotActionForm(request.POST)
     if not form.is_valid():
         return HttpResponseBadRequest("unknown action")
@@ -74,6 +77,7 @@ def robot_action_post(request, code: str):
 @operator_required
 def alert_acknowledge_post(request, pk: int):
     alert = get_object_or_404(Alert, pk=pk)
+    site_required(request.user, alert.site_id, "such alert")
     if not alert_acknowledge(alert=alert, user=request.user):
         messages.info(request, "Someone had already acknowledged that alert.")
     back = request.POST.get("next", "")

@@ -1,6 +1,7 @@
 from robots.models.alerts import Alert, AlertKind
 from robots.models.fleet import PresenceChange, Robot, RobotBoot
 from robots.models.map import Edge, Floor, Resource, ResourceWaypoint, Site, Waypoint
+from robots.models.membership import SiteMembership
 
 __all__ = [
     "Alert",
@@ -13,5 +14,6 @@ __all__ = [
     "Robot",
     "RobotBoot",
     "Site",
+    "SiteMembership",
     "Waypoint",
 ]

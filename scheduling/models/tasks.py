@@ -5,6 +5,7 @@ from django.db import models
 from django.db.models import Q
 from django.utils import timezone
 
+from core.codes import code_pk
 from scheduling.choices import FINISHED_STATUSES, Cause, Priority, StopAction, TaskStatus
 
 CODE_PREFIX = "T-"
@@ -17,10 +18,8 @@ def task_code(pk: int) -> str:
 
 def task_pk(code: str) -> int | None:
     """The primary key of a task code, or None if `code` is not one (T-42 is not T-0042)."""
-    digits = code.removeprefix(CODE_PREFIX)
-    if not digits.isdigit() or task_code(int(digits)) != code:
-        return None
-    return int(digits)
+    pk = code_pk(code, CODE_PREFIX)
+    return pk if pk is not None and task_code(pk) == code else None
 
 
 class TaskQuerySet(models.QuerySet):

@@ -5,6 +5,7 @@ from datetime import datetime, timedelta
 
 from django.conf import settings
 from django.db import IntegrityError, transaction
+from django.db.models import Max
 from django.utils import timezone
 
 from robots.models import Site, Waypoint
@@ -21,6 +22,10 @@ logger = logging.getLogger(__name__)
 # due on time), and occurrences missed while nothing ran are still created this far back.
 RECURRING_LEAD = timedelta(minutes=10)
 RECURRING_CATCH_UP = timedelta(minutes=10)
+# Occurrences missed while the sweep did not run (Celery beat down) are created late, up to
+# this far back (older ones are logged as skipped), and marked late in their history.
+RECURRING_LATE_LIMIT = timedelta(hours=24)
+RECURRING_LATE_AFTER = timedelta(minutes=1)
 
 
 @transaction.atomic
@@ -79,6 +84,7 @@ def task_create(
     dropoffs: list[Waypoint],
     requested_time: datetime,
     now: datetime,
+    note: str = "",
     **extra,
 ) -> Task:
     """One task with its stops; allocated (settings.ALLOCATE_ON_REQUEST) or enqueued for
@@ -95,7 +101,7 @@ def task_create(
     )
     stops = TaskStop.objects.bulk_create(task_stops_build(task, pickups, dropoffs))
     cause = Cause.SCHEDULE if extra.get("recurring") else Cause.REQUEST
-    task_record(task, old="", at=now, cause=cause, user=requester)
+    task_record(task, old="", at=now, cause=cause, user=requester, note=note)
     if due and settings.ALLOCATE_ON_REQUEST:
         task_allocate_created(task=task, stops=stops, now=now)
     elif due:
@@ -131,7 +137,7 @@ def recurring_instances_create(*, recurring: RecurringRequest, now: datetime) ->
 
     Idempotent: one instance per occurrence (unique constraint), however often it runs.
     """
-    start = max(recurring.starts_at, now - RECURRING_CATCH_UP)
+    start = _catch_up_from(recurring, now)
     wanted = list(occurrences(recurring.repeat, start, now + RECURRING_LEAD))
     existing = set(
         recurring.instances.filter(scheduled_for__in=wanted).values_list("scheduled_for", flat=True)
@@ -151,6 +157,26 @@ def recurring_instances_create(*, recurring: RecurringRequest, now: datetime) ->
     return sum(_instance_created(recurring, at, pickups, dropoffs, now) for at in missing)
 
 
+def _catch_up_from(recurring: RecurringRequest, now: datetime) -> datetime:
+    """Where to look for missing occurrences: the last few minutes, or, when the newest
+    instance is older than that (the sweep was not running), right after it."""
+    newest = recurring.instances.aggregate(newest=Max("scheduled_for"))["newest"]
+    start = now - RECURRING_CATCH_UP
+    if newest is None or newest < start:
+        start = newest + timedelta(microseconds=1) if newest else recurring.starts_at
+    limit = now - RECURRING_LATE_LIMIT
+    if start < limit:
+        skipped = sum(1 for _ in occurrences(recurring.repeat, start, limit))
+        if skipped:
+            logger.warning(
+                "periodic request %s: %d occurrences more than %s ago not created",
+                recurring.pk,
+                skipped,
+                RECURRING_LATE_LIMIT,
+            )
+    return max(start, limit, recurring.starts_at)
+
+
 def _instance_created(recurring, at, pickups, dropoffs, now) -> bool:
     try:
         with transaction.atomic():
@@ -167,6 +193,11 @@ def _instance_create(recurring, at, pickups, dropoffs, now) -> Task:
         "contents": recurring.contents,
         "priority": recurring.priority,
     }
+    late = now - at
+    note = ""
+    if late > RECURRING_LATE_AFTER:
+        due = timezone.localtime(at).strftime("%H:%M")
+        note = f"created late: due at {due}, {late // timedelta(minutes=1)} min ago"
     return task_create(
         site=recurring.site,
         requester=recurring.requester,
@@ -175,6 +206,7 @@ def _instance_create(recurring, at, pickups, dropoffs, now) -> Task:
         dropoffs=dropoffs,
         requested_time=at,
         now=now,
+        note=note,
         recurring=recurring,
         scheduled_for=at,
     )

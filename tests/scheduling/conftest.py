@@ -128,8 +128,9 @@ class Beater:
 
     def post(self, *, events=(), acks=(), **state):
         self.seq += 1
-        state.setdefault("floor", "1F")
         state.setdefault("waypoint", self.robot.dock.code)
+        # The tiny site's waypoint codes start with their floor's ("3F-WARD" is on 3F).
+        state.setdefault("floor", (state["waypoint"] or "1F").split("-")[0])
         body = factories.heartbeat_body(self.seq, state=state, events=list(events), acks=acks)
         return self.client.post(
             f"/api/v1/robots/{self.robot.code}/heartbeat",

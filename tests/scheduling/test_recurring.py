@@ -74,14 +74,31 @@ def test_an_instance_falls_due_at_its_time(site):
     assert instance.history.last().cause == "sweep"
 
 
-def test_occurrences_missed_long_ago_are_not_delivered_late(site):
+def test_occurrences_missed_while_the_sweep_was_down_are_created_late_and_marked(site):
     request(site, repeat=EVERY_TWO_HOURS, now=local(22, 7))  # 08:00
 
-    assert recurring_sweep(now=local(22, 14, 5)) == 1  # 14:00, still within the catch-up
+    # The sweep did not run from 07:00 to 14:05 (Celery beat down), then restarts.
+    assert recurring_sweep(now=local(22, 14, 5)) == 3  # 10:00 and 12:00 late, and 14:00
 
     times = Task.objects.values_list("requested_time", flat=True)
-    assert set(times) == {local(22, 8), local(22, 14)}  # not 10:00 or 12:00
-    assert Task.objects.get(requested_time=local(22, 14)).status == "due"
+    assert set(times) == {local(22, 8), local(22, 10), local(22, 12), local(22, 14)}
+    for hour, late in ((10, "245 min ago"), (12, "125 min ago")):
+        created = Task.objects.get(requested_time=local(22, hour)).history.get()
+        assert created.cause == "schedule"
+        assert created.note == f"created late: due at {hour}:00, {late}"
+    assert (
+        Task.objects.get(requested_time=local(22, 14)).history.get().note.startswith("created late")
+    )
+    assert recurring_sweep(now=local(22, 14, 6)) == 0  # once each
+
+
+def test_occurrences_more_than_a_day_old_are_not_created(site):
+    request(site, repeat={"times": ["08:00"]}, now=local(20, 7))  # 20th 08:00
+
+    assert recurring_sweep(now=local(23, 9)) == 1  # only the 23rd's, an hour late
+
+    times = Task.objects.values_list("requested_time", flat=True)
+    assert set(times) == {local(20, 8), local(23, 8)}
 
 
 def test_an_inactive_periodic_request_creates_nothing(site):

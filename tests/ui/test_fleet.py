@@ -101,7 +101,7 @@ def test_it_renders_the_fleet_page_in_constant_queries(
         Task.objects.filter(pk=task.pk).update(robot=robot, status="assigned")
     nurse_client.get("/fleet/")  # the site map is cached from now on
 
-    # session, user, the user's groups, sites, robots, their tasks, leases, resources in use
-    # (none: no wait to estimate), open alerts
-    with django_assert_num_queries(9):
+    # session, user, the user's groups, sites, the user's sites, robots, their tasks, leases,
+    # resources in use (none: no wait to estimate), open alerts
+    with django_assert_num_queries(10):
         assert nurse_client.get("/fleet/").content.count(b"<tr data-robot=") == robots

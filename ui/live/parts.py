@@ -37,10 +37,10 @@ def resources_part(request, site: Site) -> str:
     return render_to_string("robots/_resources.html", context, request=request)
 
 
-def robot_part(request, code: str) -> tuple[str, dict] | None:
-    """The robot page's panels, and the robot's live state."""
+def robot_part(request, code: str, site: Site) -> tuple[str, dict] | None:
+    """The robot page's panels, and the robot's live state (None: no such robot at `site`)."""
     detail = robot_detail(code=code)
-    if detail is None:
+    if detail is None or detail.robot.site_id != site.pk:
         return None
     context = robot_context(detail)
     html = render_to_string("robots/_robot_panels.html", context, request=request)

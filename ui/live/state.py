@@ -11,6 +11,7 @@ from django.shortcuts import get_object_or_404
 from django.views.decorators.cache import never_cache
 
 from core.access import member_required
+from robots.membership import site_required
 from robots.models import Site
 from ui.live import parts as live_parts
 
@@ -22,6 +23,7 @@ DEFAULT_PARTS = "schedule,fleet,resources,alerts"  # "robot" needs ?robot=<code>
 @member_required
 def state(request, site: str):
     site = get_object_or_404(Site, code=site)
+    site_required(request.user, site.pk, f"site {site.code!r}")
     wanted = request.GET.get("parts", DEFAULT_PARTS).split(",")
     unknown = sorted(set(wanted) - set(PARTS))
     if unknown:
@@ -36,7 +38,7 @@ def state(request, site: str):
     if "alerts" in wanted:
         parts["alerts"] = live_parts.alerts_part(request)
     if "robot" in wanted:
-        found = live_parts.robot_part(request, request.GET.get("robot", ""))
+        found = live_parts.robot_part(request, request.GET.get("robot", ""), site)
         if found is None:
             raise Http404("no such robot")
         parts["robot"], wire = found

@@ -22,7 +22,7 @@ from django.core.management.base import BaseCommand, CommandError
 from django.db import transaction
 
 from hospital_delivery.models import ApiToken
-from robots.models import Robot, Site
+from robots.models import Robot, Site, SiteMembership
 from robots.services import robot_token_issue
 from robots.sitefile import SiteFileInvalid, site_file_read
 
@@ -62,6 +62,7 @@ class Command(BaseCommand):
     def handle(self, *args, only=None, **options):
         if only in (None, "users"):
             self._users(Path(options["logins"]))
+            self._memberships(options["site_file"])
         if only in (None, "fleet"):
             self._fleet(options)
 
@@ -104,6 +105,17 @@ class Command(BaseCommand):
         if group is not None:
             user.groups.add(group)
         return note
+
+    def _memberships(self, site_file: str) -> None:
+        """The demo users work at the demo site (when it is loaded)."""
+        try:
+            code = site_file_read(site_file)["site"]
+        except (OSError, SiteFileInvalid, KeyError):
+            return
+        site = Site.objects.filter(code=code).first()
+        users = get_user_model().objects.filter(username__in=DEMO_USERS)
+        for user in users if site else ():
+            SiteMembership.objects.get_or_create(user=user, site=site)
 
     # --- Fleet --------------------------------------------------------------------------
 

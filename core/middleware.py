@@ -1,0 +1,27 @@
+"""Refuse requests whose URL carries text the database cannot store, before any view runs.
+
+A NUL character (`%00`) in a path or query parameter reaches lookups such as
+Robot.objects.filter(code=...), and PostgreSQL refuses it with an error (a 500). No code,
+page or parameter of ours contains one, so the request is refused as a whole.
+"""
+
+from django.http import HttpResponseBadRequest, JsonResponse
+
+
+def _has_nul(request) -> bool:
+    if "\x00" in request.path:
+        return True
+    return any("\x00" in "".join([key, *values]) for key, values in request.GET.lists())
+
+
+class RefuseNulMiddleware:
+    def __init__(self, get_response):
+        self.get_response = get_response
+
+    def __call__(self, request):
+        if not _has_nul(request):
+            return self.get_response(request)
+        why = ["contains a NUL character"]
+        if request.path.startswith("/api/"):
+            return JsonResponse({"error": "invalid", "detail": {"url": why}}, status=400)
+        return HttpResponseBadRequest("The address contains a NUL character.")

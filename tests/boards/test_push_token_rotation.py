@@ -1,0 +1,73 @@
+"""Rotating a robot's token (manage.py robot_token) closes its push sockets of the old token,
+over a real websocket to daphne."""
+
+import asyncio
+import json
+
+import pytest
+from asgiref.sync import async_to_sync
+from channels.db import database_sync_to_async
+from django.core.management import call_command
+from websockets.asyncio.client import connect
+from websockets.exceptions import ConnectionClosed
+
+from boards.services import board_post
+from robots.services import robot_token_issue
+from tests import servers
+
+pytestmark = pytest.mark.django_db(transaction=True)
+
+
+@pytest.fixture(scope="module")
+def daphne_url(django_db_setup, django_db_blocker):
+    with servers.daphne() as server:
+        yield server.url
+
+
+async def push_socket(url: str, robot, token: str):
+    """A robot's push socket, returned once it receives wake-ups (it has joined its group)."""
+    socket = await connect(
+        f"{url}/ws/robots/{robot.code}", additional_headers={"Authorization": f"Bearer {token}"}
+    )
+    for _ in range(100):
+        posted = await database_sync_to_async(board_post)(
+            robot=robot, type="action", body={"action": "pause"}
+        )
+        try:
+            async with asyncio.timeout(0.1):
+                wake = json.loads(await socket.recv())
+        except TimeoutError:
+            continue
+        assert wake == {"type": "wake", "message": posted.public_id}
+        return socket
+    raise AssertionError("the push socket never received a wake-up")
+
+
+async def close_code(socket) -> int:
+    """Reads (wake-ups still in flight) until the server closes the socket; its close code."""
+    async with asyncio.timeout(10):
+        try:
+            while True:
+                await socket.recv()
+        except ConnectionClosed as closed:
+            return closed.rcvd.code
+
+
+def test_rotating_the_token_closes_the_old_tokens_socket(daphne_url, robot):
+    async def scenario():
+        old = await push_socket(daphne_url, robot, robot.token)
+        await database_sync_to_async(call_command)("robot_token", robot.code)
+        return await close_code(old)
+
+    assert async_to_sync(scenario)() == 4401
+
+
+def test_a_socket_of_the_new_token_keeps_receiving_wake_ups(daphne_url, robot):
+    async def scenario():
+        old = await push_socket(daphne_url, robot, robot.token)
+        token = await database_sync_to_async(robot_token_issue)(robot=robot)
+        assert await close_code(old) == 4401
+        new = await push_socket(daphne_url, robot, token)  # asserts it gets wake-ups
+        await new.close()
+
+    async_to_sync(scenario)()
