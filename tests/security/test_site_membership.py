@@ -7,7 +7,8 @@ from channels.testing import WebsocketCommunicator
 
 from hospital_delivery.asgi import application
 from robots.alerts import alert_raise
-from robots.models import AlertKind, OperatorAction
+from robots.models import AlertKind
+from scheduling.models import OperatorAction
 from tests import factories
 from tests.scheduling.conftest import request
 from tests.security.conftest import ApiHttp, logged_in_session

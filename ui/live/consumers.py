@@ -7,6 +7,7 @@ from channels.db import database_sync_to_async
 from channels.generic.websocket import AsyncJsonWebsocketConsumer
 
 from core.access import is_member
+from robots.membership import may_see_site
 from robots.models import Site
 from ui.live.publish import session_group, site_group
 
@@ -62,4 +63,6 @@ def _site_access(user, code: str) -> tuple[int | None, int | None]:
     site_id = Site.objects.filter(code=code).values_list("pk", flat=True).first()
     if site_id is None:
         return CLOSE_NOT_FOUND, None
+    if not may_see_site(user, site_id):
+        return CLOSE_FORBIDDEN, None
     return None, site_id
