@@ -4,7 +4,7 @@ from django.contrib.auth.decorators import login_required
 from django.urls import include, path
 from drf_spectacular.views import SpectacularAPIView, SpectacularSwaggerSplitView
 
-from hospital_delivery import live
+from hospital_delivery import healthz, live
 
 # Swagger UI with its start-up script as a file of its own, not inline (Content-Security-Policy).
 api_docs = SpectacularSwaggerSplitView.as_view(
@@ -13,6 +13,7 @@ api_docs = SpectacularSwaggerSplitView.as_view(
 
 urlpatterns = [
     path("admin/", admin.site.urls),
+    path("healthz", healthz.healthz, name="healthz"),
     path("api/v1/", include("boards.urls")),
     path("api/v1/", include("robots.urls")),
     path("api/v1/", include("scheduling.urls")),
