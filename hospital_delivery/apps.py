@@ -6,4 +6,7 @@ class HospitalDeliveryConfig(AppConfig):
     verbose_name = "Accounts and API tokens"
 
     def ready(self):
-        from hospital_delivery import schema  # noqa: F401  (registers OpenAPI extensions)
+        from hospital_delivery import (
+            privatefiles,  # noqa: F401  (SQLite file mode 600)
+            schema,  # noqa: F401  (registers OpenAPI extensions)
+        )
