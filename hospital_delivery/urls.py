@@ -4,6 +4,8 @@ from django.contrib.auth.decorators import login_required
 from django.urls import include, path
 from drf_spectacular.views import SpectacularAPIView, SpectacularSwaggerSplitView
 
+from hospital_delivery import healthz
+
 # Swagger UI with its start-up script as a file of its own, not inline (Content-Security-Policy).
 api_docs = SpectacularSwaggerSplitView.as_view(
     url_name="schema", template_name="api/swagger_ui.html"
@@ -11,6 +13,7 @@ api_docs = SpectacularSwaggerSplitView.as_view(
 
 urlpatterns = [
     path("admin/", admin.site.urls),
+    path("healthz", healthz.healthz, name="healthz"),
     path("api/v1/", include("boards.urls")),
     path("api/v1/", include("robots.urls")),
     path("api/v1/", include("scheduling.urls")),

@@ -116,7 +116,10 @@ hook_prepare_fleet() {
 }
 # ---------------------------------------------------------------------------------------------
 
+# Files this script and the servers create (var/, db.sqlite3, logs) are the owner's alone.
+umask 077
 mkdir -p var
+chmod 700 var
 ensure_venv
 ensure_services
 ensure_secret_key

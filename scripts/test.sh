@@ -4,7 +4,10 @@
 # Installs what it needs (Python packages into .venv; Redis, PostgreSQL and Chromium from Debian's
 # packages when missing), starts Redis and PostgreSQL when they are stopped, then runs, stopping
 # at the first failure: ruff lint, ruff format check, the import-linter contracts (the layers of
-# pyproject.toml), Django's system checks, the missing-migration check and pytest. Extra arguments go to pytest, e.g. ./scripts/test.sh -k heartbeat -x
+# pyproject.toml), Django's system checks, the missing-migration check and pytest (which includes
+# the bounded property-based runs of tests/security: Hypothesis bodies at the heartbeat and the
+# task API, schemathesis over the OpenAPI schema). Extra arguments go to pytest, e.g.
+# ./scripts/test.sh -k heartbeat -x
 set -euo pipefail
 
 cd "$(dirname "${BASH_SOURCE[0]}")/.."

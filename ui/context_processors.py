@@ -4,6 +4,7 @@ open alerts (one query, and only when the page shows them)."""
 from django.conf import settings
 
 from core.access import is_member, is_operator
+from core.watchdog import sweeps_overdue
 from robots.membership import member_site_ids
 from robots.selectors import alerts_open
 
@@ -19,6 +20,8 @@ def pages(request) -> dict:
         "user_is_operator": member and is_operator(user),
         # A lazy queryset: evaluated (once) only by a template that lists the alerts.
         "open_alerts": _alerts_of(user) if member else (),
+        # Called (one Redis read) only by a page that shows it: base.html, for members.
+        "sweeps_overdue": sweeps_overdue if member else (),
     }
 
 
