@@ -3,13 +3,10 @@ open socket (boards/consumers.py) to heartbeat now. Board contents never travel 
 heartbeat responses, so a lost wake-up costs at most one heartbeat interval.
 """
 
-import logging
-
 from django.db import transaction
 
+from core.outbox import send_soon
 from core.pubsub import group_send
-
-logger = logging.getLogger(__name__)
 
 
 def robot_group(robot_code: str) -> str:
@@ -18,18 +15,16 @@ def robot_group(robot_code: str) -> str:
 
 def wake_on_commit(*, robot_code: str, message_id: str) -> None:
     """Ask a robot with an open push channel to heartbeat now (it will find message_id)."""
-    transaction.on_commit(lambda: _wake(robot_code, message_id), robust=True)
+    transaction.on_commit(lambda: _wake(robot_code, message_id))
 
 
 def wake_now(*, robot_code: str, message_id: str) -> None:
     """wake_on_commit, but at once: only for a caller holding the robot's row lock
     (robots.services.robot_lock). The heartbeat the wake causes waits for that lock, so it finds
     message_id committed, and the robot's trip to the server overlaps the rest of the
-    transaction. If that rolls back, the robot has heartbeated once for nothing."""
-    try:
-        _wake(robot_code, message_id)
-    except Exception:
-        logger.exception("waking %s failed", robot_code)
+    transaction. If that rolls back, the robot has heartbeated once for nothing. Like every push,
+    it leaves this thread (core/outbox.py): the caller holds a row lock and must not wait."""
+    _wake(robot_code, message_id)
 
 
 def robot_sockets_close(*, robot) -> None:
@@ -37,8 +32,11 @@ def robot_sockets_close(*, robot) -> None:
     one (a receiver of robots.hooks.token_issued); boards/consumers.py decides by the time."""
     message = {"type": "robot.token_revoked", "issued_at": robot.token_issued_at.isoformat()}
     group = robot_group(robot.code)
-    transaction.on_commit(lambda: group_send(group, message), robust=True)
+    what = f"closing {robot.code}'s old sockets"
+    transaction.on_commit(lambda: send_soon(lambda: group_send(group, message), what=what))
 
 
 def _wake(robot_code: str, message_id: str) -> None:
-    group_send(robot_group(robot_code), {"type": "robot.wake", "message": message_id})
+    message = {"type": "robot.wake", "message": message_id}
+    group = robot_group(robot_code)
+    send_soon(lambda: group_send(group, message), what=f"waking {robot_code}")

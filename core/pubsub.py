@@ -2,8 +2,9 @@
 and the pages' live events (ui/live/publish.py).
 
 A push is a courtesy, never the record: if Redis is down the change is still committed, pages
-re-read their state when they reconnect and robots still heartbeat. So callers log failures
-instead of raising them (robust on_commit callbacks).
+re-read their state when they reconnect and robots still heartbeat. So callers send through the
+outbox (core/outbox.py), off the request's thread, and a Redis that stalls costs each publish at
+most PUBLISH_TIMEOUT, without retries.
 """
 
 import functools
@@ -13,6 +14,10 @@ from asgiref.sync import async_to_sync
 from channels.layers import get_channel_layer
 from channels_redis.pubsub import RedisPubSubChannelLayer
 from django.conf import settings
+from redis.backoff import NoBackoff
+from redis.retry import Retry
+
+PUBLISH_TIMEOUT = 0.5  # seconds to connect, and to send a publish and read its answer
 
 
 def group_send(group: str, message: dict) -> None:
@@ -48,4 +53,9 @@ def _layer_prefix() -> str:
 def _redis() -> redis.Redis:
     # redis-py's pool notices a fork and opens new connections in the child.
     hosts = settings.CHANNEL_LAYERS["default"]["CONFIG"]["hosts"]
-    return redis.Redis.from_url(hosts[0])
+    return redis.Redis.from_url(
+        hosts[0],
+        socket_timeout=PUBLISH_TIMEOUT,
+        socket_connect_timeout=PUBLISH_TIMEOUT,
+        retry=Retry(NoBackoff(), 0),
+    )

@@ -128,11 +128,12 @@ DEFAULT_AUTO_FIELD = "django.db.models.BigAutoField"
 
 REDIS_URL = env_str("REDIS_URL", "redis://127.0.0.1:6379/0")
 
-# Where the pages' websockets connect. Pages are served by gunicorn (HTTP), websockets by daphne
-# on another port (Procfile), so by default a page connects to ws(s)://<its own host>:PORT_WS.
-# WEBSOCKET_URL (e.g. wss://fleet.example.org, behind a proxy) overrides that.
+# Where the pages' websockets connect. Behind the proxy (nginx, scripts/run.sh) pages and sockets
+# share one origin, so by default a page connects to ws(s)://<its own host and port>/ws/...
+# WEBSOCKET_URL (e.g. ws://127.0.0.1:8001, daphne itself) or WEBSOCKET_PORT (the page's host,
+# another port) point them elsewhere, for servers run without the proxy.
 WEBSOCKET_URL = env_str("WEBSOCKET_URL", "")
-WEBSOCKET_PORT = env_int("WEBSOCKET_PORT", env_int("PORT_WS", 8001, minimum=1), minimum=1)
+WEBSOCKET_PORT = env_int("WEBSOCKET_PORT", 0, minimum=0) or ""
 
 # Content-Security-Policy (django-csp): scripts and style sheets from our own files only, no
 # inline <script> or <style>. Style attributes stay allowed: the pages draw battery bars and
@@ -269,6 +270,13 @@ CELERY_TASK_IGNORE_RESULT = True
 CELERY_TASK_ACKS_LATE = True
 CELERY_WORKER_PREFETCH_MULTIPLIER = 1
 CELERY_BROKER_CONNECTION_RETRY_ON_STARTUP = True
+# Sending a task is a courtesy too (the sweeps redo what a lost message left): from the outbox's
+# thread, with short timeouts and no retries, so a stalled Redis only delays it.
+CELERY_TASK_PUBLISH_RETRY = False
+CELERY_BROKER_TRANSPORT_OPTIONS = {"socket_timeout": 2, "socket_connect_timeout": 2}
+# Wake-ups, page events and Celery messages leave the request's thread (core/outbox.py); off,
+# they are sent at once (the test process, where tests read what was sent right away).
+OUTBOX_THREAD = env_bool("OUTBOX_THREAD", True)
 CELERY_TIMEZONE = TIME_ZONE
 # Sweeps re-find anything a lost Celery message left behind, so none of them is critical alone.
 PRESENCE_SWEEP_SECONDS = env_int("PRESENCE_SWEEP_SECONDS", 1, minimum=1)
@@ -294,4 +302,10 @@ LOGGING = {
     "formatters": {"plain": {"format": "%(asctime)s %(levelname)s %(name)s: %(message)s"}},
     "handlers": {"console": {"class": "logging.StreamHandler", "formatter": "plain"}},
     "root": {"handlers": ["console"], "level": LOG_LEVEL},
+    # Celery's own line per task run and per beat tick: the sweeps run every second, so these
+    # would flood the log; each sweep logs what it changed instead.
+    "loggers": {
+        name: {"level": "WARNING"}
+        for name in ("celery.app.trace", "celery.worker.strategy", "celery.beat")
+    },
 }

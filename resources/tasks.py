@@ -1,8 +1,9 @@
 from celery import shared_task
 
+from core.sweeps import sweep_report
 from resources import leases
 
 
 @shared_task
 def lease_sweep():
-    leases.lease_sweep()
+    sweep_report("lease sweep", leases.lease_sweep())

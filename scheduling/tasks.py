@@ -4,6 +4,7 @@ the sweeps (Celery beat, settings.CELERY_BEAT_SCHEDULE) redo whatever a lost mes
 from celery import shared_task
 from django.db import OperationalError
 
+from core.sweeps import sweep_report
 from scheduling import services
 
 
@@ -14,14 +15,14 @@ def allocate_task(task_id: int) -> None:
 
 @shared_task
 def due_sweep() -> None:
-    services.due_sweep()
+    sweep_report("due sweep", {"tasks assigned": services.due_sweep()})
 
 
 @shared_task
 def ack_timeout_sweep() -> None:
-    services.ack_timeout_sweep()
+    sweep_report("ack timeouts", {"assignments withdrawn": services.ack_timeout_sweep()})
 
 
 @shared_task
 def recurring_sweep() -> None:
-    services.recurring_sweep()
+    sweep_report("recurring sweep", {"deliveries created": services.recurring_sweep()})

@@ -279,6 +279,18 @@ SQL
 
 CHROMIUM_BIN=/usr/bin/chromium
 
+# ----------------------------------------------------------------------------------------------
+# nginx (the proxy in front of gunicorn and daphne; run by honcho with its own configuration,
+# not as the system's service)
+
+ensure_nginx() {
+    if command -v nginx >/dev/null 2>&1 || [[ -x /usr/sbin/nginx ]]; then
+        return 0
+    fi
+    ensure_apt_packages nginx
+    [[ -x /usr/sbin/nginx ]] || die "nginx is missing after installing it"
+}
+
 ensure_chromium() {
     if [[ -x "${CHROMIUM_BIN}" ]]; then
         return 0

@@ -15,8 +15,10 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 # shellcheck source=scripts/lib.sh
 source scripts/lib.sh
 
+# One port for everything (nginx); gunicorn and daphne listen behind it, on loopback.
 export PORT_HTTP="${PORT_HTTP:-8000}"
 export PORT_WS="${PORT_WS:-8001}"
+export PORT_WEB="${PORT_WEB:-8002}"
 SITE_FILE="${SITE_FILE:-sites/eulji.yaml}"
 
 # is_local_url URL DEFAULT_PORT: URL points at this machine on DEFAULT_PORT (what we can start).
@@ -79,9 +81,9 @@ ensure_secret_key() {
 
 check_ports_free() {
     local port
-    for port in "${PORT_HTTP}" "${PORT_WS}"; do
+    for port in "${PORT_HTTP}" "${PORT_WS}" "${PORT_WEB}"; do
         if tcp_port_open 127.0.0.1 "${port}"; then
-            die "port ${port} on 127.0.0.1 is already in use (another ./scripts/run.sh?); set PORT_HTTP/PORT_WS to use others"
+            die "port ${port} on 127.0.0.1 is already in use (another ./scripts/run.sh?); set PORT_HTTP/PORT_WS/PORT_WEB to use others"
         fi
     done
 }
@@ -102,7 +104,7 @@ hook_create_demo_users() {
 # into var/fleet.json (mode 600), which the fleet process reads.
 hook_issue_robot_tokens() {
     python manage.py demo_setup --only fleet --site-file "${SITE_FILE}" \
-        --server-url "http://127.0.0.1:${PORT_HTTP}" --ws-url "ws://127.0.0.1:${PORT_WS}"
+        --server-url "http://127.0.0.1:${PORT_HTTP}" --ws-url "ws://127.0.0.1:${PORT_HTTP}"
 }
 
 # HOOK simulated fleet: prepare whatever the `fleet:` Procfile line needs. The fleet process
@@ -122,6 +124,7 @@ mkdir -p var
 chmod 700 var
 ensure_venv
 ensure_services
+ensure_nginx
 ensure_secret_key
 check_ports_free
 
@@ -129,6 +132,9 @@ log "migrating the database"
 python manage.py migrate --noinput
 log "collecting static files"
 python manage.py collectstatic --noinput -v 0
+log "writing the proxy's configuration"
+python manage.py proxy_config --listen "127.0.0.1:${PORT_HTTP}" --web "127.0.0.1:${PORT_WEB}" \
+    --ws "127.0.0.1:${PORT_WS}" --runtime var/nginx >/dev/null
 log "loading site ${SITE_FILE}"
 python manage.py load_site "${SITE_FILE}"
 
@@ -140,7 +146,7 @@ cat >&2 <<EOF
 
   hospital_delivery is starting: open http://127.0.0.1:${PORT_HTTP}/
   (admin: http://127.0.0.1:${PORT_HTTP}/admin/, API docs: http://127.0.0.1:${PORT_HTTP}/api/docs/,
-   websockets on 127.0.0.1:${PORT_WS}). Log in with a demo login printed above.
+   everything through nginx on this one port). Log in with a demo login printed above.
   Simulated robots drive the site at ${FLEET_SPEEDUP}x real time (a delivery across floors takes
   well under a minute), with ${FLEET_TRAFFIC} random deliveries per simulated hour.
   Ctrl-C stops everything.

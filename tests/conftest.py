@@ -32,6 +32,14 @@ class RobotHttp:
 
 
 @pytest.fixture(scope="session", autouse=True)
+def outbox_in_line():
+    """In this process, pushes and Celery messages are sent at once, so a test reads what was
+    sent when its callbacks have run; servers started as subprocesses use the outbox thread
+    (tests/resources/test_redis_stalled.py)."""
+    settings.OUTBOX_THREAD = False
+
+
+@pytest.fixture(scope="session", autouse=True)
 def channels_prefix():
     """Pub/sub channels ignore Redis database numbers: keep this run's apart from any other."""
     prefix = f"hdtest-{uuid.uuid4().hex[:8]}"

@@ -5,6 +5,7 @@ import os
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 import uuid
 from contextlib import contextmanager
@@ -82,6 +83,36 @@ def gunicorn(*, workers: int = 2, env: dict | None = None):
     finally:
         process.terminate()
         process.wait(timeout=15)
+
+
+@contextmanager
+def nginx(*, web_url: str, ws_url: str):
+    """The proxy in front of them, configured as scripts/run.sh does (hospital_delivery/proxy.py),
+    serving the repository's static/ directory; yields its http:// URL."""
+    from hospital_delivery.proxy import Upstreams, nginx_config
+
+    port = free_port()
+    with tempfile.TemporaryDirectory(prefix="hd-nginx-") as runtime:
+        for part in ("body", "proxy", "fastcgi", "uwsgi", "scgi"):
+            os.mkdir(os.path.join(runtime, part))
+        upstreams = Upstreams(
+            listen=f"127.0.0.1:{port}",
+            web=web_url.split("://", 1)[1],
+            ws=ws_url.split("://", 1)[1],
+            static_root=REPO / "static",
+            runtime=Path(runtime),
+            user="root" if os.geteuid() == 0 else None,
+        )
+        config = Path(runtime) / "nginx.conf"
+        config.write_text(nginx_config(upstreams))
+        command = ["nginx", "-p", runtime, "-c", str(config), "-e", "stderr", "-g", "daemon off;"]
+        process = subprocess.Popen(command)
+        try:
+            wait_for_port(port, process)
+            yield f"http://127.0.0.1:{port}"
+        finally:
+            process.terminate()
+            process.wait(timeout=15)
 
 
 class Daphne:

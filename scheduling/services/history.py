@@ -6,6 +6,7 @@ from datetime import datetime
 from django.db import transaction
 
 from core import changes
+from core.outbox import send_soon
 from scheduling.models import Task, TaskTransition
 
 logger = logging.getLogger(__name__)
@@ -53,7 +54,8 @@ def allocation_enqueue(task_id: int) -> None:
 
     Best effort: if the message is lost (or Redis is down) the due sweep allocates it.
     """
-    transaction.on_commit(lambda: _send_allocation(task_id), robust=True)
+    send = lambda: _send_allocation(task_id)  # noqa: E731
+    transaction.on_commit(lambda: send_soon(send, what=f"allocating task {task_id}"))
 
 
 def _send_allocation(task_id: int) -> None:

@@ -37,8 +37,9 @@
   function socketUrl() {
     const configured = meta("hd-websocket-url").replace(/\/+$/, "");
     const scheme = location.protocol === "https:" ? "wss" : "ws";
-    const port = meta("hd-websocket-port") || "8001";
-    const base = configured || `${scheme}://${location.hostname}:${port}`;
+    const port = meta("hd-websocket-port");
+    const host = port ? `${location.hostname}:${port}` : location.host; // one origin by default
+    const base = configured || `${scheme}://${host}`;
     return `${base}/ws/sites/${encodeURIComponent(site)}`;
   }
 

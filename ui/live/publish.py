@@ -12,6 +12,7 @@ import logging
 from django.db import transaction
 
 from core import changes
+from core.outbox import send_soon
 from core.pubsub import group_send
 from ui.live import payloads
 
@@ -44,7 +45,8 @@ def on_change(*, kind: str, site_id: int, subject, **detail) -> None:
 def publish_on_commit(*, site_id: int, kind: str, data: dict) -> None:
     """Tell the pages watching site_id that `kind` happened (e.g. "robot", "task", "lease")."""
     message = {"type": "site.event", "kind": kind, "data": data}
-    transaction.on_commit(lambda: group_send(site_group(site_id), message), robust=True)
+    group = site_group(site_id)
+    transaction.on_commit(lambda: send_soon(lambda: group_send(group, message), what=kind))
 
 
 def on_user_logged_out(sender, request, user, **kwargs) -> None:
@@ -54,4 +56,5 @@ def on_user_logged_out(sender, request, user, **kwargs) -> None:
     if session_key:
         message = {"type": "session.ended"}
         group = session_group(session_key)
-        transaction.on_commit(lambda: group_send(group, message), robust=True)
+        send = lambda: group_send(group, message)  # noqa: E731
+        transaction.on_commit(lambda: send_soon(send, what="closing a session's pages"))

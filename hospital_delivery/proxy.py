@@ -1,0 +1,91 @@
+"""The nginx in front of the servers (scripts/run.sh; `manage.py proxy_config` writes it).
+
+One origin for everything: pages, the API and robots' heartbeats go to gunicorn, websockets
+(`/ws/`: pages' live events and robots' push channel) to daphne, `/static/` is served by nginx
+itself. nginx reads a request's whole body before passing it on, so a client sending one byte
+at a time ties up an nginx connection, not one of gunicorn's few sync workers (gunicorn's own
+documentation asks for such a buffering proxy in front of sync workers).
+"""
+
+from dataclasses import dataclass
+from pathlib import Path
+
+# Bodies nginx takes: a heartbeat is at most 64 KiB (protocol); pages and the API post less
+# than this, and the app refuses what it must with its own error shape first.
+CLIENT_MAX_BODY = "3m"
+
+
+@dataclass(frozen=True)
+class Upstreams:
+    listen: str  # host:port the proxy listens on, e.g. 127.0.0.1:8000
+    web: str  # gunicorn, e.g. 127.0.0.1:8002
+    ws: str  # daphne, e.g. 127.0.0.1:8001
+    static_root: Path  # the collected static files (settings.STATIC_ROOT)
+    runtime: Path  # nginx's pid file and temporary bodies
+    user: str | None = None  # the workers' user when nginx starts as root
+
+
+def nginx_config(upstreams: Upstreams) -> str:
+    runtime = upstreams.runtime
+    user = f"user {upstreams.user};\n" if upstreams.user else ""
+    return f"""# Written by `manage.py proxy_config` (hospital_delivery/proxy.py): do not edit.
+{user}worker_processes 1;
+pid {runtime}/nginx.pid;
+error_log stderr warn;
+
+events {{
+    worker_connections 1024;
+}}
+
+http {{
+    include /etc/nginx/mime.types;
+    default_type application/octet-stream;
+    access_log off;  # gunicorn logs the requests it serves
+    sendfile on;
+    server_tokens off;
+    client_max_body_size {CLIENT_MAX_BODY};
+    client_body_timeout 20s;  # a client that stalls mid-body is dropped, not waited for
+    client_body_temp_path {runtime}/body;
+    proxy_temp_path {runtime}/proxy;
+    fastcgi_temp_path {runtime}/fastcgi;
+    uwsgi_temp_path {runtime}/uwsgi;
+    scgi_temp_path {runtime}/scgi;
+
+    map $http_upgrade $connection_upgrade {{
+        default upgrade;
+        ''      close;
+    }}
+
+    upstream web {{ server {upstreams.web}; keepalive 16; }}
+    upstream ws {{ server {upstreams.ws}; }}
+
+    server {{
+        listen {upstreams.listen};
+
+        location /static/ {{
+            alias {upstreams.static_root}/;
+            expires 1h;
+        }}
+
+        location /ws/ {{
+            proxy_pass http://ws;
+            proxy_http_version 1.1;
+            proxy_set_header Upgrade $http_upgrade;
+            proxy_set_header Connection $connection_upgrade;
+            proxy_set_header Host $http_host;
+            proxy_set_header X-Forwarded-For $proxy_add_x_forwarded_for;
+            proxy_read_timeout 1h;  # pages and robots keep their sockets open
+        }}
+
+        location / {{
+            proxy_pass http://web;
+            proxy_http_version 1.1;
+            proxy_set_header Connection "";
+            proxy_set_header Host $http_host;
+            proxy_set_header X-Forwarded-For $proxy_add_x_forwarded_for;
+            proxy_request_buffering on;  # the whole body first: slow clients never reach gunicorn
+            proxy_buffering on;
+        }}
+    }}
+}}
+"""
