@@ -25,3 +25,8 @@ def ack_timeout_sweep() -> None:
 @shared_task
 def recurring_sweep() -> None:
     services.recurring_sweep()
+
+
+@shared_task
+def unload_timeout_sweep() -> None:
+    services.unload_timeout_sweep()
