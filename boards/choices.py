@@ -21,6 +21,15 @@ class EventType(models.TextChoices):
     TASK_FAILED = "task_failed", "Task failed"
     RESOURCE_ENTERED = "resource_entered", "Resource entered"
     RESOURCE_RELEASED = "resource_released", "Resource released"
+    COMPARTMENT_LOCKED = "compartment_locked", "Compartment kept locked after wrong PINs"
+
+
+class OpenedWith(models.TextChoices):
+    """How a compartment was opened (events[].opened_with, secure deliveries)."""
+
+    PIN = "pin", "the delivery's PIN"
+    BADGE = "badge", "a badge"
+    STAFF = "staff", "staff at the robot"
 
 
 RESOURCE_EVENT_TYPES = {EventType.RESOURCE_ENTERED, EventType.RESOURCE_RELEASED}

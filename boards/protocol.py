@@ -52,9 +52,19 @@ def plan_dock_stop(*, waypoint: str, via: list[str]) -> dict:
     return entry
 
 
-def plan_task(*, contents: str, sender: str, receiver: str, priority: str) -> dict:
-    """What a plan says about each of its tasks (`tasks`, by task code)."""
-    return {"contents": contents, "sender": sender, "receiver": receiver, "priority": priority}
+# Wrong PINs a robot accepts at a secure drop-off before it keeps the compartment locked.
+SECURE_MAX_ATTEMPTS = 3
+
+
+def plan_task(
+    *, contents: str, sender: str, receiver: str, priority: str, pin: dict | None = None
+) -> dict:
+    """What a plan says about each of its tasks (`tasks`, by task code). A secure delivery
+    (an addition) says how to check its PIN offline: `pin` is its salted slow hash."""
+    entry = {"contents": contents, "sender": sender, "receiver": receiver, "priority": priority}
+    if pin is not None:
+        entry["secure"] = {"pin": pin, "max_attempts": SECURE_MAX_ATTEMPTS}
+    return entry
 
 
 def grant_body(

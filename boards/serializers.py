@@ -3,7 +3,7 @@
 from drf_spectacular.utils import PolymorphicProxySerializer
 from rest_framework import serializers
 
-from boards.choices import RESOURCE_EVENT_TYPES, EventType, MessageType, RequestType
+from boards.choices import RESOURCE_EVENT_TYPES, EventType, MessageType, OpenedWith, RequestType
 from core.fields import (
     StrictCharField,
     StrictDateTimeField,
@@ -83,6 +83,17 @@ class HeartbeatEventSerializer(SiteCodesMixin, serializers.Serializer):
     task = StrictCharField(max_length=32, required=False, help_text="task code")
     stop = StrictIntegerField(min_value=0, max_value=32767, required=False, allow_null=True)
     resource = StrictCharField(max_length=64, required=False, help_text="resource_* events")
+    # Secure deliveries (an addition): who opened which compartment, and wrong PINs before.
+    compartment = StrictCharField(
+        max_length=16, required=False, help_text="loaded, unloaded, compartment_locked"
+    )
+    opened_with = serializers.ChoiceField(choices=OpenedWith.choices, required=False)
+    opened_by = StrictCharField(
+        max_length=64, required=False, help_text="badge id hash or staff id, if known"
+    )
+    failed_attempts = StrictIntegerField(
+        min_value=0, max_value=1000, required=False, help_text="wrong PINs before this"
+    )
 
     def validate_resource(self, code):
         return self.known_resource(code)
@@ -90,6 +101,8 @@ class HeartbeatEventSerializer(SiteCodesMixin, serializers.Serializer):
     def validate(self, attrs):
         if attrs["type"] in RESOURCE_EVENT_TYPES and not attrs.get("resource"):
             raise serializers.ValidationError({"resource": f"required for {attrs['type']}"})
+        if attrs["type"] == EventType.COMPARTMENT_LOCKED and not attrs.get("compartment"):
+            raise serializers.ValidationError({"compartment": "required for compartment_locked"})
         return attrs
 
     def to_internal_value(self, data):
@@ -144,11 +157,26 @@ class PlanStopSerializer(serializers.Serializer):
     via = serializers.ListField(child=serializers.CharField(), required=False)
 
 
+class PinHashSerializer(serializers.Serializer):
+    algorithm = serializers.ChoiceField(choices=["pbkdf2_sha256"])
+    iterations = serializers.IntegerField(min_value=1)
+    salt = serializers.CharField(help_text="hex")
+    hash = serializers.CharField(help_text="hex: PBKDF2-HMAC-SHA256(PIN, salt, iterations)")
+
+
+class PlanSecureSerializer(serializers.Serializer):
+    pin = PinHashSerializer()
+    max_attempts = serializers.IntegerField(min_value=1, help_text="wrong PINs, then locked")
+
+
 class PlanTaskSerializer(serializers.Serializer):
     contents = serializers.CharField()
     sender = serializers.CharField()
     receiver = serializers.CharField()
     priority = serializers.ChoiceField(choices=["normal", "urgent"])
+    secure = PlanSecureSerializer(
+        required=False, help_text="a secure delivery: lock it, open for its PIN only"
+    )
 
 
 class PlanMessageSerializer(serializers.Serializer):

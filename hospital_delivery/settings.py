@@ -293,6 +293,7 @@ CELERY_BEAT_SCHEDULE = {
     "scheduling-due-sweep": _sweep("scheduling.tasks.due_sweep", SWEEP_SECONDS),
     "scheduling-ack-timeout-sweep": _sweep("scheduling.tasks.ack_timeout_sweep", SWEEP_SECONDS),
     "scheduling-recurring-sweep": _sweep("scheduling.tasks.recurring_sweep", 30),
+    "scheduling-unload-timeout-sweep": _sweep("scheduling.tasks.unload_timeout_sweep", 10),
 }
 
 LOG_LEVEL = env_str("LOG_LEVEL", "INFO")

@@ -17,6 +17,7 @@ class QueuedLease:
     state: str
     state_label: str
     position: int | None  # 1 = next in line; None for holders
+    lease: str = ""  # its public id ("L-12"), for an operator's force-release
 
 
 def resource_queues(*, site: Site) -> dict[str, list[QueuedLease]]:
@@ -36,6 +37,7 @@ def resource_queues(*, site: Site) -> dict[str, list[QueuedLease]]:
                 state=lease.state,
                 state_label=lease.get_state_display(),
                 position=lease.queue_position,
+                lease=lease.public_id,
             )
         )
     return queues

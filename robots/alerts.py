@@ -49,3 +49,19 @@ def alert_acknowledge(*, alert: Alert, user) -> bool:
         kind = changes.ALERT_ACKNOWLEDGED
         changes.changed(kind=kind, site_id=alert.site_id, subject=alert)
     return bool(acknowledged)
+
+
+def alerts_close(*, key: str, by=None, at=None) -> int:
+    """Acknowledge the open alert with this key, if any, for `by` (what it was about is
+    resolved); returns how many were closed (0 or 1)."""
+    alert = Alert.objects.open().filter(key=key).first()
+    if alert is None:
+        return 0
+    closed = (
+        Alert.objects.open()
+        .filter(pk=alert.pk)
+        .update(acknowledged_at=at or timezone.now(), acknowledged_by=by)
+    )
+    if closed:
+        changes.changed(kind=changes.ALERT_ACKNOWLEDGED, site_id=alert.site_id, subject=alert)
+    return closed

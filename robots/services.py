@@ -111,6 +111,7 @@ def robot_visible(robot: Robot) -> tuple:
         robot.load,
         tuple(robot.errors or ()),
         robot.paused_by_operator,
+        robot.fault_at is not None,
     )
 
 

@@ -142,6 +142,7 @@ SITE_FIELDS = {
     "offline_timeout": POSITIVE,
     "grant_timeout": POSITIVE,
     "lease_hard_limit": POSITIVE,
+    "unload_timeout": POSITIVE,
     "battery_threshold": _Field(NUMBER, minimum=0, maximum=1),
     "floors": _Field(list, required=True),
     "resources": _Field(list),
@@ -185,7 +186,14 @@ ROBOT_FIELDS = {
     "dock": _code(64),
     "capacity": _Field(int, minimum=1, maximum=32767),
     "name": TEXT,
+    "compartments": _Field(list),
 }
+# A compartment holds one item; a lockable one opens only for the recipient (secure deliveries).
+COMPARTMENT_FIELDS = {
+    "code": _code(16),
+    "lockable": _Field(bool),
+}
+MAX_COMPARTMENTS = 32
 
 
 def site_file_validate(data: dict) -> list[str]:
@@ -535,6 +543,27 @@ class _Validation:
                 self._problem(f"{path}.code", f"duplicate robot code '{code}' (also {seen[code]})")
             if "dock" in robot:
                 self._dock(robot["dock"], f"{path}.dock")
+            if "compartments" in robot:
+                self._compartments(robot, path)
+
+    def _compartments(self, robot: dict, path: str) -> None:
+        """Each compartment holds one item, so they set the robot's capacity."""
+        compartments = robot["compartments"]
+        if not 1 <= len(compartments) <= MAX_COMPARTMENTS:
+            self._problem(f"{path}.compartments", f"list 1 to {MAX_COMPARTMENTS} compartments")
+        seen: set[str] = set()
+        for n, raw in enumerate(compartments):
+            compartment = self._item(raw, f"{path}.compartments[{n}]", COMPARTMENT_FIELDS)
+            code = (compartment or {}).get("code")
+            if code is not None and code in seen:
+                self._problem(f"{path}.compartments[{n}].code", f"duplicate compartment '{code}'")
+            seen.add(code)
+        if "capacity" in robot and robot["capacity"] != len(compartments):
+            self._problem(
+                f"{path}.capacity",
+                f"{robot['capacity']} differs from its {len(compartments)} compartments "
+                "(one item each): leave capacity out",
+            )
 
     def _dock(self, code: str, path: str) -> None:
         wp = self.waypoints.get(code)
@@ -618,6 +647,7 @@ SITE_SETTINGS = [
     "offline_timeout",
     "grant_timeout",
     "lease_hard_limit",
+    "unload_timeout",
     "battery_threshold",
 ]
 
@@ -795,10 +825,20 @@ def _robots_write(site: Site, robots: list[dict], plan: SiteMap) -> None:
             "code": robot["code"],
             "dock_id": docks[robot["dock"]],
             "capacity": robot.get("capacity", _default(Robot, "capacity")),
+            "compartments": _compartments(robot),
         }
+        if robot.get("compartments"):
+            wanted[robot["code"]]["capacity"] = len(robot["compartments"])
         if "name" in robot:  # a name set by an operator stays unless the file gives one
             wanted[robot["code"]]["name"] = robot["name"]
     _rows_sync(Robot.objects.filter(code__in=wanted), wanted, key=lambda row: row.code)
+
+
+def _compartments(robot: dict) -> list[dict]:
+    return [
+        {"code": c["code"], "lockable": bool(c.get("lockable", False))}
+        for c in robot.get("compartments", [])
+    ]
 
 
 def _rows_sync(

@@ -47,6 +47,7 @@ class FleetConfig:
     ws_url: str | None = None  # the push channel's base URL; None: heartbeats only
     traffic_rate: float = 0.0  # deliveries per simulated hour
     traffic_token: str | None = None
+    secure_share: float = 0.0  # of the medication deliveries, secure (locked, PIN)
 
 
 def fleet_file_read(path: str | Path) -> dict:
@@ -63,9 +64,9 @@ class Fleet:
         self._check_dead_zones(config.network.dead_zones)
         self.clock = RealClock(config.speedup)
         self.router = Router(self.site_map)  # shared: its searches are cached per source
+        self.traffic = self._traffic()
         self.robots = [self._robot(spec) for spec in config.robots]
         self.loops = [RobotLoop(robot) for robot in self.robots]
-        self.traffic = self._traffic()
         self.errors: list[str] = []  # robots whose program crashed
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
@@ -90,9 +91,16 @@ class Fleet:
             behaviour=self.config.behaviour,
             router=self.router,
             dead_zones=self.config.network.dead_zones,
+            compartments=self._compartments(spec.code),
+            pins=self.traffic.pins.get if self.traffic else (lambda task: None),
         )
         transport.connected = robot.connected
         return robot
+
+    def _compartments(self, code: str) -> list[dict]:
+        """The robot's compartments as the site file declares them (none: an older robot)."""
+        robots = {robot.get("code"): robot for robot in self.config.site.get("robots", [])}
+        return list(robots.get(code, {}).get("compartments", []))
 
     def _traffic(self) -> TrafficGenerator | None:
         config = self.config
@@ -106,6 +114,7 @@ class Fleet:
             rate=config.traffic_rate,
             rng=random.Random(f"{config.seed}-traffic"),
             speedup=config.speedup,
+            secure_share=config.secure_share,
         )
 
     def _check_dead_zones(self, codes) -> None:

@@ -17,6 +17,11 @@ Its behaviour, as in the source paper (sections 2.2, 3.2 and 4.3):
   `resource_released` from the lobby of the target floor;
 * at a stop it reports `arrived`, waits for the staff to press the button (a random delay),
   reports `loaded`/`unloaded`, and `task_completed` after the last stop of a task;
+* a secure delivery (its plan task has `secure`) is locked in a free lockable compartment; at
+  the drop-off the simulated recipient types the PIN (`pins`: what the requester was told,
+  if the recipient knows it), sometimes wrongly; the robot checks it offline
+  (robotsim.client.pin_check) and after `max_attempts` wrong ones keeps it locked and reports
+  `compartment_locked`;
 * the battery drains while it moves and charges while it stands at its dock with nothing to do;
 * `action` messages: `pause` (stops at the next waypoint), `resume`, `return_to_dock`.
 
@@ -37,7 +42,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 
 from robots.router import MapEdge, Router, SiteMap
-from robotsim.client import RefusedError, RobotClient
+from robotsim.client import RefusedError, RobotClient, pin_check
 
 logger = logging.getLogger("robotsim")
 
@@ -105,6 +110,8 @@ class Behaviour:
     drain_moving: float = 1 / (8 * 3600)  # per second moving: 8 h on a full battery
     drain_idle: float = 1 / (48 * 3600)
     charge_rate: float = 1 / (2 * 3600)  # per second at the dock: full in 2 h
+    wrong_pin: float = 0.2  # a recipient who knows the PIN mistypes it (once) this often
+    pin_seconds: float = 8.0  # to type a PIN
 
 
 @dataclass
@@ -160,8 +167,13 @@ class SimRobot:
         behaviour: Behaviour | None = None,
         router: Router | None = None,
         dead_zones: frozenset[str] = frozenset(),
+        compartments: list[dict] = (),
+        pins: Callable[[str], str | None] = lambda task: None,
     ):
         self.client = client
+        self.lockable = [c["code"] for c in compartments if c.get("lockable")]
+        self.locked: dict[str, str] = {}  # task -> the compartment its items are locked in
+        self.pins = pins
         self.code = client.robot
         self.map = site_map
         self.router = router or Router(site_map)
@@ -443,9 +455,18 @@ class SimRobot:
         yield Sleep(self.rng.uniform(*self.behaviour.staff_delay))
         if not any(_key(s) == (task, index) for s in self.stops):
             return  # cancelled while the staff were coming: the new plan says what next
+        secure = self.tasks.get(task, {}).get("secure")
         if action == PICKUP:
             self._load(task)
-            self._event("loaded", task=task, stop=index)
+            self._event("loaded", task=task, stop=index, **self._lock(task, secure))
+        elif secure and task in self.locked:
+            opened = yield from self._open(task, secure)
+            if opened is None:  # kept locked: the items stay on board for the operators
+                self.stops = [s for s in self.stops if _key(s) != (task, index)]
+                self.completed.add(task)
+                return
+            self._unload(task)
+            self._event("unloaded", task=task, stop=index, **opened)
         else:
             self._unload(task)
             self._event("unloaded", task=task, stop=index)
@@ -456,6 +477,36 @@ class SimRobot:
             self.stats.completed += 1
             self._event("task_completed", task=task)
         logger.info("%s: %s %s at %s", self.code, _PAST[action], task, self.waypoint)
+
+    def _lock(self, task: str, secure: dict | None) -> dict:
+        """Lock a secure delivery's items in a free lockable compartment; the event's fields."""
+        if not secure:
+            return {}
+        free = [code for code in self.lockable if code not in self.locked.values()]
+        if not free:  # the server sent it to a robot without a free lock: report it plainly
+            logger.error("%s: no free lockable compartment for %s", self.code, task)
+            return {}
+        self.locked[task] = free[0]
+        return {"compartment": free[0], "opened_with": "staff"}
+
+    def _open(self, task: str, secure: dict) -> Program:
+        """The recipient types PINs until one opens the compartment or the robot locks it.
+        Returns the `unloaded` event's fields, or None after compartment_locked."""
+        compartment, known = self.locked[task], self.pins(task)
+        attempts = int(secure.get("max_attempts", 3))
+        for wrong in range(attempts):
+            yield Sleep(self.behaviour.pin_seconds)
+            mistyped = wrong == 0 and self.rng.random() < self.behaviour.wrong_pin
+            typed = None if mistyped else known
+            if typed is not None and pin_check(typed, secure):
+                del self.locked[task]
+                fields = {"compartment": compartment, "opened_with": "pin"}
+                return {**fields, "failed_attempts": wrong}
+        self._event(
+            "compartment_locked", task=task, compartment=compartment, failed_attempts=attempts
+        )
+        logger.warning("%s: %s kept locked in %s after wrong PINs", self.code, task, compartment)
+        return None
 
     def _load(self, task: str) -> None:
         pickups = [s for s in self.stops if s.get("task") == task and s["action"] == PICKUP]

@@ -200,6 +200,7 @@ class TrafficGenerator:
         rng: random.Random,
         speedup: float = 1.0,
         wait: Callable[[float], bool] | None = None,
+        secure_share: float = 0.0,
     ):
         if rate <= 0:
             raise ValueError("rate must be positive")
@@ -209,6 +210,10 @@ class TrafficGenerator:
         self.rng = rng
         self.speedup = speedup
         self.posted: list[str] = []  # task codes
+        # Medication goes secure this often; each one's PIN is told to its recipient, as a
+        # nurse would hand it on (the simulated robots' staff look it up here).
+        self.secure_share = secure_share
+        self.pins: dict[str, str] = {}
         self.failed = 0
         self._wait = wait
 
@@ -220,7 +225,10 @@ class TrafficGenerator:
             self.post_one()
 
     def post_one(self) -> str | None:
-        body = request_body(random_kind(self.rng), self.stations, self.rng)
+        kind = random_kind(self.rng)
+        body = request_body(kind, self.stations, self.rng)
+        if kind == "medication" and self.rng.random() < self.secure_share:
+            body["secure"] = True
         try:
             status, reply = self.api.post(body)
         except requests.RequestException as exc:
@@ -232,6 +240,8 @@ class TrafficGenerator:
             logger.warning("traffic: request refused (%s): %s", status, reply)
             return None
         self.posted.append(reply["code"])
+        if "pin" in reply:
+            self.pins[reply["code"]] = reply["pin"]
         logger.info(
             "traffic: %s %s, %s -> %s",
             reply["code"],

@@ -51,6 +51,8 @@ class Cause(models.TextChoices):
     ACK_TIMEOUT = "ack_timeout", "Not acknowledged in time"
     PRESENCE = "presence", "Robot went offline"
     USER = "user", "User"
+    ROBOT_FAULT = "robot_fault", "Robot fault"
+    ANOMALY = "anomaly", "Event out of order (ignored)"
 
 
 class OperatorActionKind(models.TextChoices):

@@ -7,6 +7,8 @@ from scheduling import services
 
 def on_heartbeat_applied(*, applied) -> None:
     services.heartbeat_tasks_apply(applied=applied)
+    # After its events: what a faulty robot reports loaded in the same heartbeat stays with it.
+    services.heartbeat_fault_check(applied=applied)
 
 
 def on_presence_changed(*, robot, old, new, at) -> None:

@@ -8,13 +8,29 @@ from datetime import datetime, timedelta
 
 from django.db.models import Case, IntegerField, Prefetch, Q, QuerySet, Value, When
 
-from robots.choices import WaypointKind
+from boards.choices import EventType
+from boards.models import RobotEvent
+from robots.choices import Presence, WaypointKind
 from robots.mapcache import site_map, waypoint_by_id
 from robots.models import Robot, Site, Waypoint
 from robots.selectors import robot_position, waypoint_code
 from scheduling.allocator import RobotRoute, Stop, TaskStops
-from scheduling.choices import FINISHED_STATUSES, HELD_STATUSES, ROUTE_STATUSES, StopAction
-from scheduling.models import RobotPlan, Task, TaskStop, TaskTransition
+from scheduling.choices import (
+    FINISHED_STATUSES,
+    HELD_STATUSES,
+    ROUTE_STATUSES,
+    Cause,
+    StopAction,
+    TaskStatus,
+)
+from scheduling.models import (
+    CustodyEntry,
+    RecurringRequest,
+    RobotPlan,
+    Task,
+    TaskStop,
+    TaskTransition,
+)
 
 
 @dataclass(frozen=True)
@@ -105,10 +121,56 @@ def task_detail(*, code: str) -> Task | None:
     )
 
 
+def given_back_entries(task: Task) -> list[TaskTransition]:
+    """The give-backs in a task's prefetched history (task_detail), oldest first."""
+    return [e for e in task.history.all() if _is_give_back(e)]
+
+
+def _is_give_back(entry: TaskTransition) -> bool:
+    held = (TaskStatus.ASSIGNED, TaskStatus.ACKNOWLEDGED)
+    return entry.new == TaskStatus.DUE and entry.old in held and entry.cause in GIVE_BACK_CAUSES
+
+
+def custody_between(*, site: Site, start: datetime, end: datetime) -> QuerySet[CustodyEntry]:
+    """The site's hand-offs from start (included) to end (excluded), in order (one query)."""
+    entries = CustodyEntry.objects.filter(task__site=site, at__gte=start, at__lt=end)
+    return entries.select_related("task", "task__requester", "robot").order_by("at", "id")
+
+
+def history_in_words(task: Task) -> list[tuple[TaskTransition, str]]:
+    """Each entry of a task's history (prefetched, task_detail) with its note in plain words:
+    an assignment after a give-back says why ("R1 went offline: reassigned to R3")."""
+    lines, given_back = [], None
+    for entry in task.history.all():
+        note = entry.note
+        if _is_give_back(entry):
+            given_back = entry
+        elif entry.cause == Cause.ALLOCATION and entry.robot is not None:
+            if given_back is not None:
+                note = f"{given_back.note or 'Taken from its robot'}: reassigned to {entry.robot}"
+            else:
+                note = note or f"Given to {entry.robot}"
+            given_back = None
+        lines.append((entry, note))
+    return lines
+
+
 # --- Pages -------------------------------------------------------------------------------------
 
 SCHEDULE_ROWS = 200  # the schedule table shows at most this many tasks
 RECENTLY_FINISHED = timedelta(minutes=30)  # finished tasks stay in the table this long
+
+
+# Causes that take a task from its robot before it was loaded: a give-back.
+GIVE_BACK_CAUSES = [Cause.PRESENCE, Cause.USER, Cause.ROBOT_FAULT, Cause.ACK_TIMEOUT]
+
+
+def _given_back():
+    """The history entries where a task was taken from its robot (oldest first)."""
+    held = [TaskStatus.ASSIGNED, TaskStatus.ACKNOWLEDGED]
+    return TaskTransition.objects.filter(
+        new=TaskStatus.DUE, old__in=held, cause__in=GIVE_BACK_CAUSES
+    ).order_by("id")
 
 
 @dataclass(frozen=True)
@@ -116,10 +178,34 @@ class ScheduleRow:
     task: Task
     pickups: list[str]  # station names
     dropoffs: list[str]
+    notice: str = ""  # what disrupts it, in plain words ("Held by an operator")
+    on_hold: bool = False  # its robot is stopped: the stored ETA does not hold
 
     @property
     def finished(self) -> bool:
         return self.task.status in FINISHED_STATUSES
+
+
+def task_disruption(task: Task, given_back: list[TaskTransition]) -> tuple[str, bool]:
+    """What keeps the task from going as planned, for its requester, and whether its robot is
+    stopped; ("", False) if nothing. `given_back`: its give-back entries (_given_back)."""
+    if task.status in FINISHED_STATUSES or task.status == TaskStatus.DELIVERED:
+        return "", False
+    robot = task.robot if task.status in ROUTE_STATUSES else None
+    if robot is not None and robot.fault_at is not None:
+        return f"{robot.code} reported a fault: operators are alerted", True
+    if robot is not None and robot.paused_by_operator:
+        return "Held by an operator", True
+    if robot is not None and robot.presence == Presence.OFFLINE:
+        return f"{robot.code} is offline: operators are alerted", True
+    if not given_back:
+        return "", False
+    why = given_back[-1].note or "Taken from its robot"
+    if robot is not None:
+        return f"{why}: reassigned to {robot.code}", False
+    if task.status == TaskStatus.DUE:
+        return f"{why}: waiting for another robot", False
+    return "", False
 
 
 def schedule_for_site(*, site: Site, now: datetime) -> list[ScheduleRow]:
@@ -139,7 +225,10 @@ def schedule_for_site(*, site: Site, now: datetime) -> list[ScheduleRow]:
         .annotate(finished=finished)
         .order_by("finished", "requested_time", "pk")
         .select_related("robot")
-        .prefetch_related(Prefetch("stops", queryset=TaskStop.objects.order_by("index")))
+        .prefetch_related(
+            Prefetch("stops", queryset=TaskStop.objects.order_by("index")),
+            Prefetch("history", queryset=_given_back(), to_attr="given_back"),
+        )
     )
     rows = [_schedule_row(site, task) for task in tasks[:SCHEDULE_ROWS]]
     done = [row for row in rows if row.finished]
@@ -148,10 +237,13 @@ def schedule_for_site(*, site: Site, now: datetime) -> list[ScheduleRow]:
 
 def _schedule_row(site: Site, task: Task) -> ScheduleRow:
     stops = [stop for stop in task.stops.all() if stop.skipped_at is None]
+    notice, on_hold = task_disruption(task, task.given_back)
     return ScheduleRow(
         task=task,
         pickups=[_label(site, s) for s in stops if s.action == StopAction.PICKUP],
         dropoffs=[_label(site, s) for s in stops if s.action == StopAction.DROPOFF],
+        notice=notice,
+        on_hold=on_hold,
     )
 
 
@@ -217,3 +309,68 @@ def robot_plan(*, robot: Robot) -> PlanView | None:
     ]
     acked_at = plan.message.acked_at if plan.message else None
     return PlanView(version=plan.version, posted_at=plan.posted_at, acked_at=acked_at, stops=stops)
+
+
+# --- The receiving station's view ----------------------------------------------------------------
+
+APPROACHING = timedelta(minutes=2)  # a robot this close (by its ETA) is announced
+
+
+@dataclass(frozen=True)
+class Incoming:
+    """A delivery on its way to a station: what the receiving unit sees of it."""
+
+    task: Task
+    stop: TaskStop
+    robot: Robot | None
+    arrived_at: datetime | None  # the robot is there, waiting to be unloaded, since
+    approaching: bool  # due within APPROACHING
+
+    @property
+    def is_here(self) -> bool:
+        return self.arrived_at is not None
+
+
+def station_incoming(*, site: Site, station: Waypoint, now: datetime) -> list[Incoming]:
+    """The deliveries with a drop-off still to do at `station`, the robots there first, then
+    by ETA. Three queries (the stops with their tasks and robots, the arrivals)."""
+    stops = list(
+        TaskStop.objects.remaining()
+        .filter(waypoint=station, action=StopAction.DROPOFF, task__status__in=ROUTE_STATUSES)
+        .select_related("task", "task__robot")
+    )
+    arrived = _arrivals(stops)
+    rows = []
+    for stop in stops:
+        task, robot = stop.task, stop.task.robot
+        on_board = task.status == TaskStatus.PICKED_UP
+        here = on_board and robot is not None and robot.waypoint_id == station.pk
+        arrived_at = arrived.get((task.code, stop.index), now) if here else None
+        soon = task.eta is not None and task.eta - now <= APPROACHING
+        rows.append(Incoming(task, stop, robot, arrived_at, approaching=soon and not here))
+    far = now + timedelta(days=365)
+    return sorted(rows, key=lambda r: (not r.is_here, r.task.eta or far, r.task.pk))
+
+
+def _arrivals(stops: list[TaskStop]) -> dict[tuple[str, int], datetime]:
+    """When each stop's robot reported `arrived` there (the newest report)."""
+    codes = [stop.task.code for stop in stops if stop.task.robot_id]
+    if not codes:
+        return {}
+    found = RobotEvent.objects.filter(type=EventType.ARRIVED, task__in=codes)
+    found = found.order_by("received_at").only("task", "stop", "received_at")
+    return {(e.task, e.stop): e.received_at for e in found}
+
+
+def recurring_for(*, site: Site, user, everyone: bool) -> QuerySet[RecurringRequest]:
+    """The site's running periodic requests: everyone's (operators) or the user's own."""
+    series = RecurringRequest.objects.filter(site=site, active=True).select_related("requester")
+    return (series if everyone else series.filter(requester=user)).order_by("id")
+
+
+def repeat_in_words(repeat: dict) -> str:
+    """{"times": ["08:00", "14:00"]} -> "every day at 08:00, 14:00"."""
+    if repeat.get("times"):
+        return f"every day at {', '.join(repeat['times'])}"
+    window = f", {repeat['from']}–{repeat['until']}" if "from" in repeat else ""
+    return f"every {repeat.get('every_minutes')} min{window}"

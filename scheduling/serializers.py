@@ -90,6 +90,11 @@ class TaskRequestSerializer(serializers.Serializer):
         child=StrictCharField(), min_length=1, max_length=MAX_STOPS, help_text="station codes"
     )
     repeat = RepeatSerializer(required=False, help_text="makes it a periodic request")
+    secure = serializers.BooleanField(
+        default=False,
+        help_text="locked in a compartment that opens for the recipient's PIN (answered once, "
+        "as `pin`) and goes only to a robot with a lockable compartment; not with `repeat`",
+    )
 
     def validate_site(self, code):
         site = Site.objects.filter(code=code).first()
@@ -111,6 +116,8 @@ class TaskRequestSerializer(serializers.Serializer):
         }
         if not errors and len(attrs["pickups"]) > 1 and len(attrs["dropoffs"]) > 1:
             errors["dropoffs"] = ["several pick-ups need exactly one drop-off (no many-to-many)"]
+        if attrs.get("secure") and attrs.get("repeat"):
+            errors["secure"] = ["a secure delivery cannot repeat: each has a PIN of its own"]
         if errors:
             raise serializers.ValidationError(errors)
         attrs["pickups"] = [stations[code] for code in attrs["pickups"]]
@@ -181,6 +188,7 @@ class TaskSerializer(serializers.ModelSerializer):
             "requester",
             "robot",
             "return_trip",
+            "secure",
             "eta",
             "waiting_reason",
             "stops",

@@ -26,3 +26,8 @@ def ack_timeout_sweep() -> None:
 @shared_task
 def recurring_sweep() -> None:
     sweep_report("recurring sweep", {"deliveries created": services.recurring_sweep()})
+
+
+@shared_task
+def unload_timeout_sweep() -> None:
+    sweep_report("unload timeouts", {"drop-offs overdue": services.unload_timeout_sweep()})

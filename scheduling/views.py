@@ -64,7 +64,8 @@ class TaskViewSet(mixins.ListModelMixin, viewsets.GenericViewSet):
         return Response(TaskDetailSerializer(task).data)
 
     @extend_schema(
-        summary="Request a delivery (with `repeat`, a periodic one: answers its first instance)",
+        summary="Request a delivery (with `repeat`, a periodic one: answers its first instance; "
+        "a `secure` one's answer alone carries its `pin`)",
         request=TaskRequestSerializer,
         responses={201: TaskDetailSerializer, **ERRORS},
     )
@@ -73,6 +74,8 @@ class TaskViewSet(mixins.ListModelMixin, viewsets.GenericViewSet):
         serializer.is_valid(raise_exception=True)
         task = task_request(requester=request.user, **serializer.validated_data)
         detail = TaskDetailSerializer(task_detail(code=task.code)).data
+        if task.secure:  # the only time anyone sees it: only its hash is kept
+            detail["pin"] = task.pin_plain
         return Response(detail, status=status.HTTP_201_CREATED)
 
 

@@ -16,7 +16,13 @@ from core.access import can_cancel, member_required
 from robots.membership import site_required
 from robots.models import Site
 from scheduling.models import Task
-from scheduling.selectors import stations_for_site, task_detail
+from scheduling.selectors import (
+    given_back_entries,
+    history_in_words,
+    stations_for_site,
+    task_detail,
+    task_disruption,
+)
 from scheduling.serializers import TaskRequestSerializer
 from scheduling.services import TaskNotCancellable, task_cancel, task_request
 from ui.forms import DeliveryRequestForm
@@ -41,6 +47,12 @@ def deliveries(request):
         if request_data.is_valid():
             task = task_request(requester=request.user, **request_data.validated_data)
             messages.success(request, f"Delivery {task.code} requested: {task.contents}.")
+            if task.secure:  # shown this once: only its hash is kept
+                messages.warning(
+                    request,
+                    f"PIN for {task.code}: {task.pin_plain}. Give it to the recipient: it "
+                    "opens the robot's compartment and is not shown again.",
+                )
             return redirect(_deliveries_url(task.site))
         form.add_api_errors(request_data.errors)
     status = 400 if form.is_bound else 200
@@ -61,9 +73,14 @@ def task_history(request, code: str):
     if task is None:
         raise Http404(f"no task {code!r}")
     site_required(request.user, task.site_id, f"task {code!r}")
+    history = history_in_words(task)
+    notice, on_hold = task_disruption(task, given_back_entries(task))
     context = {
         "page_site": task.site,
         "task": task,
+        "history": history,
+        "notice": notice,
+        "on_hold": on_hold,
         "can_cancel": user_may_cancel(request.user, task),
     }
     if request.GET.get("partial"):

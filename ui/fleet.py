@@ -10,10 +10,13 @@ from dataclasses import dataclass
 from django.contrib import messages
 from django.http import Http404, HttpResponseBadRequest
 from django.shortcuts import get_object_or_404, redirect, render
+from django.urls import reverse
 from django.utils.http import url_has_allowed_host_and_scheme
 from django.views.decorators.http import require_POST
 
 from core.access import member_required, operator_required
+from resources.leases import lease_revoke
+from resources.models import Lease
 from robots.alerts import alert_acknowledge
 from robots.membership import site_required
 from robots.models import Alert, Robot, Site
@@ -71,6 +74,27 @@ def robot_action_post(request, code: str):
     label = OperatorActionKind(action).label
     messages.success(request, f"{label} sent to {robot.code}.")
     return redirect("robot-page", code=robot.code)
+
+
+@require_POST
+@operator_required
+def lease_release_post(request, lease_id: str):
+    """An operator's force-release of a stuck lease (the page asked them to confirm: a robot
+    may still be inside); the next robot in line is granted at once."""
+    pk = Lease.pk_from_public_id(lease_id)
+    lease = get_object_or_404(Lease.objects.select_related("robot", "resource__site"), pk=pk)
+    granted = lease_revoke(lease=lease, by=request.user)
+    where = f"{lease.resource.code} ({lease.robot.code})"
+    if granted is None:
+        messages.info(request, f"{where} had already been released.")
+    else:
+        after = ", ".join(g.robot.code for g in granted)
+        messages.success(
+            request,
+            f"{where} force-released. "
+            + (f"Now granted to {after}." if after else "Nobody waits."),
+        )
+    return redirect(f"{reverse('fleet')}?site={lease.resource.site.code}")
 
 
 @require_POST

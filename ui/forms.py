@@ -33,6 +33,7 @@ API_FIELDS = {
     "receiver": "receiver",
     "contents": "contents",
     "priority": "priority",
+    "secure": "secure",
     "non_field_errors": None,
 }
 REPEAT_FIELDS = {
@@ -83,11 +84,17 @@ class DeliveryRequestForm(forms.Form):
         # Left as shown, it means "now" when submitted, however long the form was open.
         show_hidden_initial=True,
     )
-    sender = forms.CharField(label="Sender", required=False, strip=True)
-    receiver = forms.CharField(label="Receiver", required=False, strip=True)
-    contents = forms.CharField(label="Contents", required=False, strip=True)
+    # The API's limits, so the browser stops the typing where the server would refuse it.
+    sender = forms.CharField(label="Sender", required=False, strip=True, max_length=200)
+    receiver = forms.CharField(label="Receiver", required=False, strip=True, max_length=200)
+    contents = forms.CharField(label="Contents", required=False, strip=True, max_length=200)
     priority = forms.ChoiceField(label="Priority", choices=Priority.choices, required=False)
     repeat = forms.ChoiceField(label="Repeat", choices=REPEAT_CHOICES, required=False)
+    secure = forms.BooleanField(
+        label="Secure (PIN)",
+        required=False,
+        help_text="Locked; opens with a PIN you see once.",
+    )
     repeat_times = forms.CharField(
         label="Daily times", required=False, help_text="HH:MM, separated by commas: 08:00, 14:00"
     )
@@ -153,6 +160,7 @@ class DeliveryRequestForm(forms.Form):
             "receiver": self.cleaned_data["receiver"],
             "contents": self.cleaned_data["contents"],
             "priority": self.cleaned_data["priority"] or Priority.NORMAL,
+            "secure": bool(self.cleaned_data.get("secure")),
         }
         for name, (api_name, _label) in STOPS.items():
             data[api_name] = [

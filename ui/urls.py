@@ -1,15 +1,21 @@
 from django.urls import path
 
-from ui import deliveries, fleet
+from ui import custody, deliveries, fleet, recurring, stations
 from ui.live import state
 
 urlpatterns = [
     path("", deliveries.deliveries, name="deliveries"),
     path("deliveries/<str:code>/", deliveries.task_history, name="task-history"),
     path("deliveries/<str:code>/cancel", deliveries.task_cancel_post, name="task-cancel-page"),
+    path("custody.csv", custody.custody_csv, name="custody-csv"),
+    path("recurring/", recurring.recurring_list, name="recurring"),
+    path("recurring/<int:pk>/stop", recurring.recurring_stop_post, name="recurring-stop"),
+    path("stations/", stations.stations, name="stations"),
+    path("stations/<str:code>/", stations.station_page, name="station"),
     path("fleet/", fleet.fleet, name="fleet"),
     path("robots/<str:code>/", fleet.robot_page, name="robot-page"),
     path("robots/<str:code>/action", fleet.robot_action_post, name="robot-action"),
+    path("leases/<str:lease_id>/release", fleet.lease_release_post, name="lease-release"),
     path("alerts/<int:pk>/acknowledge", fleet.alert_acknowledge_post, name="alert-acknowledge"),
     path("live/<str:site>/state.json", state.state, name="live-state"),
 ]

@@ -13,6 +13,9 @@ class AlertKind(models.TextChoices):
     TASK_FAILED = "task_failed", "Delivery failed"
     OFFLINE_WITH_LOAD = "offline_with_load", "Robot offline with items on board"
     ROBOT_ERROR = "robot_error", "Robot reports an error"
+    EVENT_ANOMALY = "event_anomaly", "Robot event that does not fit the delivery"
+    COMPARTMENT_LOCKED = "compartment_locked", "Compartment kept locked after wrong PINs"
+    UNLOAD_TIMEOUT = "unload_timeout", "Nobody unloaded a robot waiting at a drop-off"
 
 
 class AlertQuerySet(models.QuerySet):

@@ -27,6 +27,9 @@ class Robot(models.Model):
     name = models.CharField(max_length=200, blank=True)
     dock = models.ForeignKey(Waypoint, on_delete=models.PROTECT, related_name="docked_robots")
     capacity = models.PositiveSmallIntegerField(default=4, help_text="items it can carry")
+    # From the site file: [{"code": "A", "lockable": true}, ...], one item each (so capacity is
+    # their number). Secure deliveries go only to robots with a lockable one.
+    compartments = models.JSONField(default=list, blank=True)
     token_hash = models.CharField(max_length=64, blank=True, editable=False)
     token_issued_at = models.DateTimeField(null=True, blank=True, editable=False)
 
@@ -59,6 +62,14 @@ class Robot(models.Model):
     # the scheduler offers the robot no new task meanwhile, whatever it reports.
     paused_by_operator = models.BooleanField(
         default=False, help_text="held by an operator: no new tasks until resumed"
+    )
+    # Set when the robot first reports a fault (status `error` or a non-empty `errors`), by
+    # scheduling.services.faults, which gives back its tasks then, once; cleared when an
+    # operator resolves it (Resume, or Return to dock). No new tasks meanwhile.
+    fault_at = models.DateTimeField(
+        null=True,
+        blank=True,
+        help_text="reported a fault: no new tasks until an operator resolves it",
     )
 
     objects = RobotQuerySet.as_manager()
@@ -93,6 +104,10 @@ class Robot(models.Model):
 
     def __str__(self):
         return self.code
+
+    @property
+    def lockable_compartments(self) -> list[str]:
+        return [c["code"] for c in self.compartments or () if c.get("lockable")]
 
     def presence_at(self, now: datetime) -> str:
         """Presence as a pure function of the stored times (protocol v1, "Presence")."""

@@ -36,6 +36,11 @@ class Site(models.Model):
         validators=POSITIVE,
         help_text="seconds a silent robot inside a resource keeps it before operators are alerted",
     )
+    unload_timeout = models.FloatField(
+        default=300.0,
+        validators=POSITIVE,
+        help_text="seconds a robot waits at a drop-off before operators are alerted",
+    )
     battery_threshold = models.FloatField(
         default=0.2, help_text="robots below this battery level get no new tasks"
     )

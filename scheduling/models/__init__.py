@@ -1,3 +1,4 @@
+from scheduling.models.custody import CustodyEntry, CustodyKind
 from scheduling.models.operator import OperatorAction
 from scheduling.models.plans import AllocationLock, RobotPlan
 from scheduling.models.recurring import RecurringRequest
@@ -5,6 +6,8 @@ from scheduling.models.tasks import Task, TaskStop, TaskTransition, task_code, t
 
 __all__ = [
     "AllocationLock",
+    "CustodyEntry",
+    "CustodyKind",
     "OperatorAction",
     "RecurringRequest",
     "RobotPlan",

@@ -7,6 +7,7 @@ from django.utils import timezone
 
 from core.codes import code_pk
 from scheduling.choices import FINISHED_STATUSES, Cause, Priority, StopAction, TaskStatus
+from scheduling.pins import PinHash
 
 CODE_PREFIX = "T-"
 
@@ -68,6 +69,13 @@ class Task(models.Model):
     return_trip = models.BooleanField(
         default=False, help_text="cancelled after pick-up: going back to its pick-up point"
     )
+    # A secure delivery (controlled medication, specimens) travels locked in a compartment
+    # that opens for the recipient's PIN (scheduling/pins.py: only its salted slow hash is
+    # kept) and goes only to robots with a lockable compartment.
+    secure = models.BooleanField(default=False)
+    pin_salt = models.CharField(max_length=64, blank=True, editable=False)
+    pin_iterations = models.PositiveIntegerField(default=0, editable=False)
+    pin_hash = models.CharField(max_length=128, blank=True, editable=False)
     waiting_reason = models.CharField(
         max_length=200, blank=True, help_text="why no robot took it yet"
     )
@@ -109,6 +117,13 @@ class Task(models.Model):
     @property
     def code(self) -> str:
         return task_code(self.pk)
+
+    @property
+    def pin(self):
+        """The PIN's hash (scheduling.pins.PinHash) of a secure delivery, else None."""
+        if not self.secure or not self.pin_hash:
+            return None
+        return PinHash(salt=self.pin_salt, iterations=self.pin_iterations, hash=self.pin_hash)
 
     @property
     def is_cancellable(self) -> bool:

@@ -6,7 +6,11 @@ Lifecycle of a task (every change recorded as a TaskTransition with its cause):
     assigned --plan acked / task_received / any event of its robot--> acknowledged
     acknowledged --all pick-ups loaded--> picked_up --all drop-offs unloaded--> delivered
     delivered --task_completed--> completed          (any held state --task_failed--> failed)
+    assigned, acknowledged --task_failed (first time)--> due
     assigned --ack timeout--> due                    (assigned, acknowledged --offline--> due)
+    assigned, acknowledged --robot fault--> due      (scheduling.services.faults)
+    an event that does not fit the status (completed before the last drop-off, unloaded
+    before loaded, loaded for a task not the robot's) --> no change, an anomaly alert
     scheduled, due, assigned, acknowledged --cancel--> cancelled
     picked_up (or partly loaded) --cancel--> picked_up with a return trip --unloaded--> cancelled
 
@@ -22,21 +26,29 @@ robot are changed only under that robot's lock; tasks without one only by condit
 from scheduling.services.allocation import due_sweep, task_allocate
 from scheduling.services.cancellation import TaskNotCancellable, task_cancel
 from scheduling.services.events import heartbeat_tasks_apply
+from scheduling.services.faults import heartbeat_fault_check, robot_fault, robot_fault_resolve
 from scheduling.services.operator import robot_action
 from scheduling.services.presence import robot_offline, robot_tasks_give_back
+from scheduling.services.recurring import recurring_stop
 from scheduling.services.requests import recurring_sweep, task_request
 from scheduling.services.timeouts import ack_timeout_sweep
+from scheduling.services.unloading import unload_timeout_sweep
 
 __all__ = [
     "TaskNotCancellable",
     "ack_timeout_sweep",
     "due_sweep",
+    "heartbeat_fault_check",
     "heartbeat_tasks_apply",
+    "recurring_stop",
     "recurring_sweep",
     "robot_action",
+    "robot_fault",
+    "robot_fault_resolve",
     "robot_offline",
     "robot_tasks_give_back",
     "task_allocate",
     "task_cancel",
     "task_request",
+    "unload_timeout_sweep",
 ]

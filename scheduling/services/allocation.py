@@ -40,6 +40,7 @@ logger = logging.getLogger(__name__)
 
 DUE_BATCH = 200  # tasks one due sweep allocates at most; the next sweep takes the rest
 NO_ROBOT = "no robot available (online, not paused or in error, battery above the threshold)"
+NO_SECURE_ROBOT = "secure: no available robot has a lockable compartment"
 NO_ROUTE = "no available robot can fit it in its route (capacity or unreachable stops)"
 NO_EMPTY_ROBOT = "no available robot is empty (single-task allocation)"
 
@@ -143,6 +144,11 @@ def _allocation_lock(site_id: int, *, wait: bool = True) -> Site | None:
 def _allocate(task: Task, site: Site, now: datetime, stops: list[TaskStop] | None = None) -> bool:
     new = task_stops(task, task.stops.all() if stops is None else stops, site=site)
     routes = robot_routes(robots=robots_for_allocation(site=site))
+    if task.secure:  # it travels locked: only robots that can lock it away
+        routes = {pk: held for pk, held in routes.items() if held.robot.lockable_compartments}
+        if not routes:
+            _wait(task, NO_SECURE_ROBOT)
+            return False
     while True:
         candidates = _candidates(routes)
         choice = _choose(new, task, candidates, router_for(site).travel_time)

@@ -12,10 +12,24 @@ from boards.models import BoardMessage, RobotEvent
 from boards.services import AppliedHeartbeat, HeartbeatRejected
 from robots.alerts import alert_raise
 from robots.models import AlertKind, Robot
-from scheduling.choices import HELD_STATUSES, Cause, StopAction, TaskStatus
-from scheduling.models import Task, TaskStop
+from scheduling.choices import (
+    HELD_STATUSES,
+    WAITING_STATUSES,
+    Cause,
+    StopAction,
+    TaskStatus,
+)
+from scheduling.models import CustodyKind, Task, TaskStop
+from scheduling.services.custody import (
+    custody_record,
+    custody_words,
+    lockout_alert,
+    reports_custody,
+)
+from scheduling.services.faults import event_anomaly_record
 from scheduling.services.history import task_move, task_record
 from scheduling.services.plans import robot_dock_if_idle, robot_replan
+from scheduling.services.presence import task_give_back
 
 TASK_EVENTS = {
     EventType.TASK_RECEIVED,
@@ -24,6 +38,7 @@ TASK_EVENTS = {
     EventType.UNLOADED,
     EventType.TASK_COMPLETED,
     EventType.TASK_FAILED,
+    EventType.COMPARTMENT_LOCKED,
 }
 STOP_ACTIONS = {EventType.LOADED: StopAction.PICKUP, EventType.UNLOADED: StopAction.DROPOFF}
 
@@ -108,7 +123,7 @@ def _plan_acked(beat: _Heartbeat, message: BoardMessage) -> None:
     for code in _plan_tasks(message):
         task = beat.tasks.get(code)
         if task and _holds(beat, task) and task.status == TaskStatus.ASSIGNED:
-            note = f"plan {message.public_id} acked"
+            note = f"{beat.robot.code} has it in its plan"
             _acknowledge(beat, task, cause=Cause.ROBOT_ACK, robot=beat.robot, note=note)
 
 
@@ -121,6 +136,10 @@ def _acknowledge(beat: _Heartbeat, task: Task, **why) -> None:
 def _event_apply(beat: _Heartbeat, event: RobotEvent) -> None:
     task = beat.tasks[event.task]
     why = {"cause": Cause.ROBOT_EVENT, "robot": beat.robot, "event": event}
+    misfit = _misfit(beat, task, event)
+    if misfit:
+        event_anomaly_record(task=task, event=event, robot=beat.robot, at=beat.now, why=misfit)
+        return
     if not _holds(beat, task):
         held = "not its task" if task.robot_id != beat.robot.pk else f"the task is {task.status}"
         note = f"{event.type} from {beat.robot.code} ignored: {held}"
@@ -131,12 +150,56 @@ def _event_apply(beat: _Heartbeat, event: RobotEvent) -> None:
         _acknowledge(beat, task, note=event.type, **why)
     moved = _HANDLERS[event.type](beat, task, event, why)
     if not (moved or acknowledged):
-        task_record(task, old=task.status, at=beat.now, note=event.type, **why)
+        why.setdefault("note", event.type)
+        task_record(task, old=task.status, at=beat.now, **why)
+
+
+def _misfit(beat: _Heartbeat, task: Task, event: RobotEvent) -> str:
+    """Why the event does not fit the task's state, in plain words; "" if it does.
+
+    Items moved for a task the robot does not hold, items taken off before all were loaded,
+    or a task completed before its last drop-off: the robot and the server disagree about
+    where the items are, which a person must sort out. Such an event never moves the task.
+    """
+    if not _holds(beat, task):
+        if event.type in STOP_ACTIONS:
+            return f"{beat.robot.code} reported {event.type} for a delivery {_whose(beat, task)}"
+        return ""
+    stops = task.stops.all()
+    if event.type == EventType.UNLOADED and any(
+        s.is_remaining for s in stops if s.action == StopAction.PICKUP
+    ):
+        return f"{beat.robot.code} reported unloaded before everything was loaded"
+    if event.type == EventType.TASK_COMPLETED and task.status != TaskStatus.DELIVERED:
+        if task.status == TaskStatus.PICKED_UP:
+            return f"{beat.robot.code} reported it completed before its last drop-off"
+        return f"{beat.robot.code} reported it completed before it was picked up"
+    return ""
+
+
+def _whose(beat: _Heartbeat, task: Task) -> str:
+    if task.robot_id is not None and task.robot_id != beat.robot.pk:
+        return "that is another robot's"
+    if task.status in WAITING_STATUSES:
+        return "waiting for a robot"
+    return f"that is {task.get_status_display().lower()}"
+
+
+def _custody(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict, kind: str) -> None:
+    """Keep the hand-off of a secure delivery (or one naming a compartment), in plain words
+    in the history entry of this event (why["note"])."""
+    if reports_custody(task, event):
+        stop = _stop(task, event.stop)
+        entry = custody_record(
+            task=task, stop=stop, event=event, robot=beat.robot, at=beat.now, kind=kind
+        )
+        why["note"] = custody_words(entry)
 
 
 def _loaded(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> bool:
     if not _stop_done(beat, task, event):
         return False
+    _custody(beat, task, event, why, CustodyKind.LOADED)
     if any(s.is_remaining for s in task.stops.all() if s.action == StopAction.PICKUP):
         return False
     if task.status == TaskStatus.PICKED_UP:  # a return trip whose pick-ups were dropped
@@ -149,6 +212,7 @@ def _loaded(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> bool:
 def _unloaded(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> bool:
     if not _stop_done(beat, task, event):
         return False
+    _custody(beat, task, event, why, CustodyKind.UNLOADED)
     if any(s.is_remaining for s in task.stops.all() if s.action == StopAction.DROPOFF):
         return False
     if task.return_trip:
@@ -183,20 +247,55 @@ def _completed(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> bo
 
 
 def _failed(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> bool:
-    task.failed_at, task.eta = beat.now, None
+    """A task the robot cannot carry out: with nothing on board it goes to another robot,
+    once; a second failure, or one with items on board, ends it. Operators are told either way.
+    """
     reason = str(event.data.get("reason") or event.data.get("error") or "")[:200]
-    task_move(task, TaskStatus.FAILED, at=beat.now, fields=["failed_at", "eta"], note=reason, **why)
+    because = f": {reason}" if reason else ""
+    if not _loaded_any(task) and not _failed_before(task):
+        note = f"{beat.robot.code} could not do it{because}"
+        task_give_back(
+            task, beat.robot, beat.now, avoid=True, cause=Cause.ROBOT_FAULT, event=event, note=note
+        )
+        outcome = "given to another robot"
+    else:
+        task.failed_at, task.eta = beat.now, None
+        fields = ["failed_at", "eta"]
+        task_move(task, TaskStatus.FAILED, at=beat.now, fields=fields, note=reason, **why)
+        outcome = "items still on board" if _loaded_any(task) else "it had failed before"
     alert_raise(
         site_id=task.site_id,
         kind=AlertKind.TASK_FAILED,
         key=f"task-failed:{task.code}",
-        message=f"{task.code} ({task.contents}) failed on {beat.robot.code}"
-        + (f": {reason}" if reason else ""),
+        message=f"{task.code} ({task.contents}) failed on {beat.robot.code}{because} ({outcome})",
         robot=beat.robot,
         task=task.code,
     )
     beat.failed = True
     return True
+
+
+def _loaded_any(task: Task) -> bool:
+    return any(stop.done_at for stop in task.stops.all())
+
+
+def _failed_before(task: Task) -> bool:
+    """Whether a robot already gave the task back as failed: it is not handed round forever."""
+    return task.history.filter(
+        cause=Cause.ROBOT_FAULT, new=TaskStatus.DUE, event__isnull=False
+    ).exists()
+
+
+def _locked(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> bool:
+    """Wrong PINs: the robot keeps the compartment locked; the items stay on board."""
+    kind = CustodyKind.LOCKED_OUT
+    stop = _stop(task, event.stop)
+    entry = custody_record(
+        task=task, stop=stop, event=event, robot=beat.robot, at=beat.now, kind=kind
+    )
+    why["note"] = f"{custody_words(entry)}: operators are alerted"
+    lockout_alert(task=task, entry=entry, robot=beat.robot)
+    return False
 
 
 def _noted(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> bool:
@@ -210,6 +309,7 @@ _HANDLERS = {
     EventType.UNLOADED: _unloaded,
     EventType.TASK_COMPLETED: _completed,
     EventType.TASK_FAILED: _failed,
+    EventType.COMPARTMENT_LOCKED: _locked,
 }
 
 

@@ -2,11 +2,12 @@
 
 * Pause: the robot is told to pause and gets no new tasks until an operator resumes it; it
   keeps the tasks it holds.
-* Resume: the robot is told to resume and is offered tasks again.
+* Resume: the robot is told to resume and is offered tasks again; a fault it reported
+  (scheduling.services.faults) is resolved and its alert closed.
 * Return to dock: the robot gets no new tasks until resumed, and the tasks it has not picked
   up go back to the scheduler (scheduling.services.presence.robot_tasks_give_back), which
   posts it a corrected plan: the drop-offs of what is on board, or its dock. Then it is told
-  to return to its dock. Items on board stay with it.
+  to return to its dock. Items on board stay with it. A fault is resolved, as by Resume.
 
 The action travels on the robot's board like any message, so a robot out of reach gets it on
 its next heartbeat. A newer action withdraws one the robot has not acked yet: a robot out of
@@ -23,8 +24,10 @@ from boards.choices import MessageType
 from boards.services import board_post
 from robots.models import Robot
 from robots.services import robot_lock, robot_publish
-from scheduling.choices import OperatorActionKind
-from scheduling.models import OperatorAction
+from scheduling.choices import ROUTE_STATUSES, Cause, OperatorActionKind
+from scheduling.models import OperatorAction, Task
+from scheduling.services.faults import robot_fault_resolve
+from scheduling.services.history import task_record
 from scheduling.services.presence import robot_tasks_give_back
 
 ACTION_KEY = "action"
@@ -48,9 +51,31 @@ def robot_action(*, robot: Robot, action: str, by, now: datetime | None = None) 
         supersede=True,
         robot_locked=True,
     )
+    # Resume or Return to dock resolves a fault: the operator has seen to the robot.
+    if action != OperatorActionKind.PAUSE:
+        robot_fault_resolve(robot=robot, by=by, at=now)
     held = action != OperatorActionKind.RESUME
     if robot.paused_by_operator != held:
         robot.paused_by_operator = held
         robot.save(update_fields=["paused_by_operator"])
         robot_publish(robot=robot)
+    _tell_held_tasks(robot, action, by, now)
     return OperatorAction.objects.create(robot=robot, action=action, by=by, at=now, message=message)
+
+
+# What the tasks still on the robot's route record, in their requesters' words.
+_HELD_NOTES = {
+    OperatorActionKind.PAUSE: "Held by an operator",
+    OperatorActionKind.RESUME: "Released by an operator: on its way again",
+    OperatorActionKind.RETURN_TO_DOCK: "{robot} recalled by an operator, with the items on board",
+}
+
+
+def _tell_held_tasks(robot: Robot, action: str, by, now: datetime) -> None:
+    """Record the action in the history of each task still on the robot's route, which also
+    updates their rows on the requesters' pages."""
+    note = _HELD_NOTES[action].format(robot=robot.code)
+    for task in Task.objects.filter(robot=robot, status__in=ROUTE_STATUSES):
+        task_record(
+            task, old=task.status, at=now, cause=Cause.USER, robot=robot, user=by, note=note
+        )

@@ -124,7 +124,11 @@ def _wire_stops(router: Router, start: str, stops: Sequence[Stop]):
 
 def _task_wire(task: Task) -> dict:
     return protocol.plan_task(
-        contents=task.contents, sender=task.sender, receiver=task.receiver, priority=task.priority
+        contents=task.contents,
+        sender=task.sender,
+        receiver=task.receiver,
+        priority=task.priority,
+        pin=task.pin.wire() if task.pin else None,
     )
 
 

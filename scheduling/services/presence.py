@@ -7,7 +7,7 @@ from robots.alerts import alert_raise
 from robots.models import AlertKind, Robot
 from scheduling.choices import ROUTE_STATUSES, Cause, TaskStatus
 from scheduling.models import Task
-from scheduling.services.history import allocation_enqueue, task_move
+from scheduling.services.history import allocation_enqueue, task_move, task_record
 from scheduling.services.plans import plan_withdraw_pending, robot_replan
 
 
@@ -18,11 +18,14 @@ def robot_offline(*, robot: Robot, at: datetime) -> int:
     board stay with it (silence never drops a load); operators are alerted about those. The
     robot is posted a corrected plan, which it receives when it comes back.
     """
-    given_back, loaded = _give_back_unloaded(
+    given_back, loaded = give_back_unloaded(
         robot, at, reason=f"{robot.code} went offline", cause=Cause.PRESENCE
     )
     if loaded:
         _alert_loaded(robot, loaded)
+    note = f"{robot.code} went offline with the items on board: operators are alerted"
+    for task in loaded:
+        task_record(task, old=task.status, at=at, cause=Cause.PRESENCE, robot=robot, note=note)
     return len(given_back)
 
 
@@ -33,30 +36,40 @@ def robot_tasks_give_back(*, robot: Robot, at: datetime, by=None, note: str = ""
 
     Call with the robot's row locked.
     """
-    note = note or f"given back: {robot.code} sent to its dock"
-    given_back, _loaded = _give_back_unloaded(
+    note = note or f"{robot.code} recalled to its dock by an operator"
+    given_back, _loaded = give_back_unloaded(
         robot, at, reason=note, cause=Cause.USER, user=by, note=note
     )
     return len(given_back)
 
 
-def _give_back_unloaded(robot: Robot, at: datetime, *, reason: str, **why):
+def give_back_unloaded(robot: Robot, at: datetime, *, reason: str, **why):
+    """Make the robot's tasks with nothing on board due again, each noted with `reason`
+    unless `why` has a note, and post the robot a corrected plan; returns (given back, with
+    items on board). Call with the robot's row locked."""
+    why.setdefault("note", reason)
     tasks = list(
         Task.objects.filter(robot=robot, status__in=ROUTE_STATUSES).prefetch_related("stops")
     )
     loaded = [task for task in tasks if any(stop.done_at for stop in task.stops.all())]
     given_back = [task for task in tasks if task not in loaded]
     for task in given_back:
-        _give_back(task, robot, at, **why)
+        task_give_back(task, robot, at, **why)
     if given_back:
         plan_withdraw_pending(robot=robot, reason=reason, now=at)
         robot_replan(robot=robot, now=at)
     return given_back, loaded
 
 
-def _give_back(task: Task, robot: Robot, at: datetime, **why) -> None:
+def task_give_back(task: Task, robot: Robot, at: datetime, *, avoid: bool = False, **why) -> None:
+    """Take the task from the robot (nothing of it on board) and make it due again for the
+    scheduler; with `avoid`, other robots go first. The caller posts the robot its corrected
+    plan. Robot row locked."""
     task.robot, task.ack_due_at, task.eta = None, None, None
     fields = ["robot", "ack_due_at", "eta"]
+    if avoid:
+        task.timed_out_robot = robot
+        fields.append("timed_out_robot")
     task_move(task, TaskStatus.DUE, at=at, fields=fields, robot=robot, **why)
     allocation_enqueue(task.pk)
 

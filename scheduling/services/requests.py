@@ -11,6 +11,7 @@ from django.utils import timezone
 from robots.models import Site, Waypoint
 from scheduling.choices import Cause, Priority, StopAction, TaskStatus
 from scheduling.models import RecurringRequest, Task, TaskStop
+from scheduling.pins import pin_hash, pin_new
 from scheduling.recurrence import next_occurrence, occurrences
 from scheduling.selectors import stations_by_code
 from scheduling.services.allocation import task_allocate_created
@@ -41,14 +42,20 @@ def task_request(
     priority: str = Priority.NORMAL,
     requested_time: datetime | None = None,
     repeat: dict | None = None,
+    secure: bool = False,
     now: datetime | None = None,
 ) -> Task:
     """Create a delivery task (due at once unless requested for later), or with `repeat` a
-    periodic request and its first instance, which is returned."""
+    periodic request and its first instance, which is returned.
+
+    A `secure` one (never periodic: each has its own PIN) gets a new PIN, returned once as
+    task.pin_plain for the requester to hand to the recipient; only its hash is stored.
+    """
     now = now or timezone.now()
     what = {"sender": sender, "receiver": receiver, "contents": contents, "priority": priority}
     if repeat is None:
-        return task_create(
+        pin = pin_new() if secure else ""
+        task = task_create(
             site=site,
             requester=requester,
             what=what,
@@ -56,11 +63,26 @@ def task_request(
             dropoffs=dropoffs,
             requested_time=requested_time or now,
             now=now,
+            **(_secure_fields(pin) if secure else {}),
         )
+        task.pin_plain = pin
+        return task
+    if secure:
+        raise ValueError("a secure delivery cannot repeat")
     starts_at = max(requested_time or now, now)
     recurring = _recurring_create(site, requester, what, pickups, dropoffs, repeat, starts_at)
     first = next_occurrence(repeat, starts_at)
     return _instance_create(recurring, first, pickups, dropoffs, now)
+
+
+def _secure_fields(pin: str) -> dict:
+    hashed = pin_hash(pin)
+    return {
+        "secure": True,
+        "pin_salt": hashed.salt,
+        "pin_iterations": hashed.iterations,
+        "pin_hash": hashed.hash,
+    }
 
 
 def _recurring_create(site, requester, what, pickups, dropoffs, repeat, starts_at):

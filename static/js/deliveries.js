@@ -165,4 +165,15 @@
     }
     Live.rereadSoon("schedule"); // robot, arrival, new rows: from the server
   });
+  // A robot held, faulty or offline changes what its deliveries' rows say ("Held by an
+  // operator", the ETA on hold): re-read them when that, not its position, changes.
+  const disrupted = new Map();
+  Live.on("robot", (r) => {
+    const now = [r.paused_by_operator, r.held_after_fault, r.presence === "offline"].join();
+    const before = disrupted.has(r.code) ? disrupted.get(r.code) : "false,false,false";
+    disrupted.set(r.code, now);
+    if (before !== now) {
+      Live.rereadSoon("schedule");
+    }
+  });
 })();

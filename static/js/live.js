@@ -11,6 +11,29 @@
 (function () {
   "use strict";
 
+  // A risky action (a form or its button with data-confirm) asks first, saying what follows;
+  // on every page, parts re-read live included.
+  document.addEventListener("submit", (event) => {
+    const asking = (event.submitter && event.submitter.dataset.confirm) || event.target.dataset.confirm;
+    if (asking && !window.confirm(asking)) {
+      event.preventDefault();
+    }
+  });
+
+  // A nurse's pinned station (static/js/station.js), one click away on every page.
+  try {
+    const mine = JSON.parse(localStorage.getItem("hd-my-station") || "null");
+    const nav = document.querySelector(".mainnav");
+    if (mine && mine.url && nav) {
+      const link = document.createElement("a");
+      link.href = mine.url;
+      link.textContent = `My station: ${mine.name}`;
+      nav.append(link);
+    }
+  } catch (error) {
+    // storage unavailable or garbled: no link
+  }
+
   const body = document.body;
   const site = body.dataset.site;
   if (!site) {
@@ -245,6 +268,10 @@
       const nodes = [document.createTextNode(r.status_label)];
       if (r.paused_by_operator) {
         nodes.push(document.createTextNode(" "), element("span", "badge badge-hold", "held by operator"));
+      }
+      if (r.held_after_fault) {
+        const text = "held after a fault: Resume or send it to its dock";
+        nodes.push(document.createTextNode(" "), element("span", "badge badge-error", text));
       }
       if (r.errors && r.errors.length) {
         nodes.push(document.createTextNode(" "), element("span", "badge badge-error", r.errors.join(", ")));

@@ -55,7 +55,9 @@ from robots.mapcache import router_for, site_map
 from robots.models import Robot, Waypoint
 from robots.services import robot_token_issue
 from robots.sitefile import site_file_read, site_load
+from robotsim.client import pin_check
 from scheduling.models import Task, TaskStop
+from scheduling.pins import ALGORITHM, PinHash, pin_matches
 from scheduling.services import robot_action
 
 # -------------------------------------------------------------------------------------------------
@@ -302,12 +304,15 @@ def documented_tasks_create(site) -> None:
         unknown = [stop["waypoint"] for stop in task["stops"].values()]
         unknown = [waypoint for waypoint in unknown if waypoint not in waypoints]
         assert not unknown, f"{code} stops at {unknown}, not on the Eulji map"
+        details = dict(task["details"])
+        secure = details.pop("secure", None)
         created = Task.objects.create(
             pk=int(code.removeprefix("T-")),
             site=site,
             status="completed",
             requested_time=now - timedelta(hours=1),
-            **task["details"],
+            **details,
+            **(secure_fields(secure) if secure else {}),
         )
         assert created.code == code, f"task code {code} is not what the server would call it"
         TaskStop.objects.bulk_create(
@@ -320,6 +325,16 @@ def documented_tasks_create(site) -> None:
             )
             for index, stop in task["stops"].items()
         )
+
+
+def secure_fields(secure: dict) -> dict:
+    pin = secure["pin"]
+    return {
+        "secure": True,
+        "pin_salt": pin["salt"],
+        "pin_iterations": pin["iterations"],
+        "pin_hash": pin["hash"],
+    }
 
 
 # --- The document as a whole ----------------------------------------------------------------------
@@ -609,6 +624,7 @@ def server_messages(client, eulji, tokens, staff) -> list[dict]:
         "priority": "urgent",
         "pickups": ["6F-WARD-A"],
         "dropoffs": ["2F-LAB-DROP"],
+        "secure": True,  # so the plan's task carries `secure` too
     }
     created = client.post("/api/v1/tasks/", data=order, content_type="application/json")
     assert created.status_code == 201, created.content
@@ -636,3 +652,27 @@ def test_it_shapes_every_wake_as_the_push_channel_sends_it():
         assert wake["type"] == "wake", str(block)
         assert re.fullmatch(r"m-\d+", wake["message"]), f"{block}: {wake['message']!r}"
         assert BoardMessage.pk_from_public_id(wake["message"]) is not None, str(block)
+
+
+# --- Secure deliveries ----------------------------------------------------------------------------
+
+
+def test_its_pin_hashes_open_for_the_pins_it_states_and_no_other():
+    """The worked secure delivery states its PINs; its plan's hashes are theirs, checked as the
+    server makes them and as the reference client checks them."""
+    stated = re.findall(r"the PINs `(\d{6})` and `(\d{6})`", doc_text())
+    assert stated, f"{DOC.name} states no PINs for its secure example"
+    pins = dict(zip(("T-0045", "T-0046"), stated[0], strict=True))
+    secure = {
+        code: details["secure"]
+        for code, task in task_stops_documented().items()
+        if "secure" in (details := task["details"])
+    }
+    assert set(secure) == set(pins)
+    for code, pin in pins.items():
+        wire = secure[code]["pin"]
+        hashed = PinHash(salt=wire["salt"], iterations=wire["iterations"], hash=wire["hash"])
+        assert wire["algorithm"] == ALGORITHM
+        assert pin_matches(pin, hashed), f"{code}: {pin} does not match its documented hash"
+        assert pin_check(pin, secure[code]), f"{code}: the reference client refuses {pin}"
+        assert not pin_check("000000", secure[code])

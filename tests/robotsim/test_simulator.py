@@ -13,10 +13,11 @@ from bench.inprocess import SERVER_URL, InProcessTaskApi, InProcessTransport
 from boards.models import RobotEvent
 from resources.leases import lease_sweep
 from resources.models import Lease
+from robots.models import Alert
 from robots.router import site_map_from_file
 from robotsim.client import RobotClient
 from robotsim.simulator import Behaviour, ManualClock, RobotLoop, SimRobot
-from scheduling.models import Task
+from scheduling.models import CustodyEntry, Task
 from scheduling.services import ack_timeout_sweep, due_sweep
 from tests import factories
 
@@ -32,9 +33,11 @@ class World:
         self.loops: list[RobotLoop] = []
         self.site = site
 
-    def robot(self, code: str, dock: str) -> SimRobot:
+    def robot(self, code: str, dock: str, *, behaviour=BEHAVIOUR, **secure) -> SimRobot:
+        """secure: compartments (also the server's row) and pins, as SimRobot takes them."""
         waypoint = self.site.waypoints.get(code=dock)
-        row = factories.robot_create(self.site, code, dock=waypoint)
+        compartments = secure.get("compartments", [])
+        row = factories.robot_create(self.site, code, dock=waypoint, compartments=compartments)
         client = RobotClient(
             server_url=SERVER_URL, robot=code, token=row.token, transport=InProcessTransport()
         )
@@ -44,7 +47,8 @@ class World:
             dock=dock,
             clock=self.clock,
             rng=random.Random(code),
-            behaviour=BEHAVIOUR,
+            behaviour=behaviour,
+            **secure,
         )
         self.loops.append(RobotLoop(robot))
         return robot
@@ -166,3 +170,47 @@ def test_it_pauses_and_resumes_on_the_servers_word(world, api):
 
     board_post(robot=row, type="action", body={"action": "resume"})
     world.run_until(completed(code))
+
+
+LOCKING = [{"code": "A", "lockable": True}, {"code": "B"}]
+
+
+def secure_order(api, pickups, dropoffs) -> tuple[str, str]:
+    body = {"sender": "Pharmacy", "receiver": "Ward 3", "contents": "Morphine", "secure": True}
+    status, reply = api.post({**body, "pickups": pickups, "dropoffs": dropoffs})
+    assert status == 201, reply
+    return reply["code"], reply["pin"]
+
+
+def test_its_recipient_opens_a_secure_delivery_with_the_pin_after_a_wrong_one(world, api):
+    pins = {}
+    mistyping = Behaviour(staff_delay=(5.0, 10.0), wrong_pin=1.0)  # wrong first, then right
+    robot = world.robot("R1", "1F-DOCK-1", behaviour=mistyping, compartments=LOCKING, pins=pins.get)
+    world.run_until(lambda: robot.client.seq > 1)
+    code, pins_code = secure_order(api, ["1F-PHARM"], ["3F-WARD"])
+    pins[code] = pins_code
+
+    world.run_until(completed(code))
+
+    loaded = next(e for e in robot.log if e.get("type") == "loaded")
+    unloaded = next(e for e in robot.log if e.get("type") == "unloaded")
+    assert (loaded["compartment"], unloaded["compartment"], unloaded["opened_with"]) == (
+        "A",
+        "A",
+        "pin",
+    )
+    kinds = list(CustodyEntry.objects.values_list("kind", "compartment", "failed_attempts"))
+    assert kinds == [("loaded", "A", 0), ("unloaded", "A", 1)]
+
+
+def test_a_recipient_without_the_pin_gets_it_locked_and_operators_alerted(world, api):
+    robot = world.robot("R1", "1F-DOCK-1", compartments=LOCKING)  # nobody knows the PIN
+    world.run_until(lambda: robot.client.seq > 1)
+    code, _pin = secure_order(api, ["1F-PHARM"], ["3F-WARD"])
+
+    world.run_until(lambda: Alert.objects.filter(kind="compartment_locked").exists())
+
+    locked = next(e for e in robot.log if e.get("type") == "compartment_locked")
+    assert (locked["task"], locked["compartment"], locked["failed_attempts"]) == (code, "A", 3)
+    assert Task.objects.get().status == "picked_up"  # its items stay locked on board
+    assert not any(e.get("type") == "unloaded" for e in robot.log)

@@ -261,12 +261,13 @@ def test_it_renders_the_deliveries_page_in_constant_queries(
     request(site)
     nurse_client.get("/")  # the site map is cached from now on
 
-    # session, user, the user's groups, sites, the user's sites, tasks, their stops, open alerts
-    with django_assert_num_queries(8):
+    # session, user, the user's groups, sites, the user's sites, tasks, their stops, their
+    # give-backs (what disrupted them), open alerts
+    with django_assert_num_queries(9):
         nurse_client.get("/")
 
     for _ in range(10):
         task = request(site, pickups=["1F-PHARM"], dropoffs=["2F-LAB", "3F-WARD"])
         Task.objects.filter(pk=task.pk).update(robot=robot, status="assigned")
-    with django_assert_num_queries(8):
+    with django_assert_num_queries(9):
         assert nurse_client.get("/").content.count(b"<tr data-task=") == 11

@@ -25,6 +25,7 @@ ROBOT_KEYS = {
     "capacity",
     "errors",
     "paused_by_operator",
+    "held_after_fault",
     "last_seen_at",
 }
 

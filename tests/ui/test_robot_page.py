@@ -76,8 +76,27 @@ def test_it_forbids_nurses_to_command_robots(nurse_client, r1):
 def test_it_hides_the_operator_buttons_from_nurses(nurse_client, operator_client, r1):
     assert b">Pause</button>" not in nurse_client.get("/robots/R1/").content
     html = operator_client.get("/robots/R1/").content.decode()
-    for label in ("Pause", "Resume", "Return to dock"):
+    for label in ("Pause", "Return to dock"):
         assert f">{label}</button>" in html
+
+
+def test_it_offers_only_the_buttons_that_make_sense_for_the_robots_state(
+    operator_client, operator, r1
+):
+    def buttons() -> set[str]:
+        html = operator_client.get("/robots/R1/").content.decode()
+        labels = ("Pause", "Resume", "Return to dock")
+        return {label for label in labels if f">{label}</button>" in html}
+
+    assert buttons() == {"Pause", "Return to dock"}
+    robot_action(robot=r1, action="pause", by=operator)
+    assert buttons() == {"Resume", "Return to dock"}
+    robot_action(robot=r1, action="resume", by=operator)
+    Beater(r1).beat(status="error", errors=["lidar"])  # held after a fault
+    assert buttons() == {"Pause", "Resume", "Return to dock"}
+    html = operator_client.get("/robots/R1/").content.decode()
+    assert "held after a fault" in html
+    assert 'data-confirm="Send R1 back to its dock?' in html
 
 
 def test_it_refuses_unknown_actions(operator_client, r1):

@@ -11,10 +11,10 @@ from django.utils import timezone
 from core.access import can_cancel
 from resources.selectors import resource_queues, resource_waits
 from robots.mapcache import site_map
-from robots.models import Robot, Site
+from robots.models import Robot, Site, Waypoint
 from robots.selectors import fleet_snapshot
 from scheduling.models import Task
-from scheduling.selectors import robot_plan, schedule_for_site, tasks_by_robot
+from scheduling.selectors import robot_plan, schedule_for_site, station_incoming, tasks_by_robot
 from ui.live.payloads import robot_payload
 from ui.selectors import robot_detail
 
@@ -47,6 +47,14 @@ def robot_part(request, code: str, site: Site) -> tuple[str, dict] | None:
     return html, context["wire"]
 
 
+def station_part(request, site: Site, code: str) -> str | None:
+    station = station_of(site, code)
+    if station is None:
+        return None
+    context = station_context(site, station)
+    return render_to_string("scheduling/_station_rows.html", context, request=request)
+
+
 def alerts_part(request) -> str:
     return render_to_string("_alerts.html", {}, request=request)
 
@@ -58,6 +66,16 @@ def schedule_context(request, site: Site) -> dict:
     rows = schedule_for_site(site=site, now=timezone.now())
     cancellable = {row.task.code for row in rows if user_may_cancel(request.user, row.task)}
     return {"page_site": site, "schedule": rows, "cancellable": cancellable}
+
+
+def station_of(site: Site, code: str) -> Waypoint | None:
+    return Waypoint.objects.filter(site=site, code=code).first()
+
+
+def station_context(site: Site, station: Waypoint) -> dict:
+    now = timezone.now()
+    rows = station_incoming(site=site, station=station, now=now)
+    return {"page_site": site, "station": station, "incoming": rows, "now": now}
 
 
 def user_may_cancel(user, task: Task) -> bool:

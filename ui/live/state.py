@@ -15,8 +15,8 @@ from robots.membership import site_required
 from robots.models import Site
 from ui.live import parts as live_parts
 
-PARTS = ("schedule", "fleet", "resources", "alerts", "robot")
-DEFAULT_PARTS = "schedule,fleet,resources,alerts"  # "robot" needs ?robot=<code>
+PARTS = ("schedule", "fleet", "resources", "alerts", "robot", "station")
+DEFAULT_PARTS = "schedule,fleet,resources,alerts"  # "robot" needs ?robot=, "station" ?station=
 
 
 @never_cache
@@ -43,4 +43,8 @@ def state(request, site: str):
             raise Http404("no such robot")
         parts["robot"], wire = found
         robots = [wire, *(each for each in robots if each["code"] != wire["code"])]
+    if "station" in wanted:
+        parts["station"] = live_parts.station_part(request, site, request.GET.get("station", ""))
+        if parts["station"] is None:
+            raise Http404("no such station")
     return JsonResponse({"site": site.code, "parts": parts, "robots": robots})

@@ -27,6 +27,8 @@ def _check_options(options) -> None:
         raise CommandError(f"--speedup: must be above 0, not {options['speedup']:g}")
     if options["traffic"] < 0:
         raise CommandError(f"--traffic: must be 0 or more, not {options['traffic']:g}")
+    if not 0 <= options["secure_share"] <= 1:
+        raise CommandError(f"--secure-share: must be 0 to 1, not {options['secure_share']:g}")
     low, high = options["staff_delay"]
     if not 0 <= low <= high:
         raise CommandError(f"--staff-delay: want 0 <= MIN <= MAX, not {low:g},{high:g}")
@@ -62,6 +64,12 @@ class Command(BaseCommand):
         )
         parser.add_argument(
             "--traffic", type=float, default=0.0, help="random deliveries per simulated hour"
+        )
+        parser.add_argument(
+            "--secure-share",
+            type=float,
+            default=0.3,
+            help="share of random medication deliveries that are secure (locked, PIN)",
         )
         parser.add_argument("--seed", type=int, default=None)
         parser.add_argument("--duration", type=float, help="stop after this many real seconds")
@@ -125,6 +133,7 @@ class Command(BaseCommand):
             seed=seed,
             traffic_rate=options["traffic"],
             traffic_token=file.get("traffic_token"),
+            secure_share=options["secure_share"],
         )
 
     def _robots(self, file: dict, wanted: str | None) -> tuple[RobotSpec, ...]:

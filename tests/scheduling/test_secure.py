@@ -1,0 +1,210 @@
+"""Secure deliveries: compartments from the site file, a PIN shown once and checked by the robot
+offline from its salted slow hash, custody of every hand-off, lockout, and the audit CSV."""
+
+import copy
+import csv
+import io
+import re
+
+import pytest
+from django.test import Client
+from django.utils import timezone
+
+from robots.models import Alert, Robot, Waypoint
+from robots.sitefile import SiteFileInvalid, site_load
+from robotsim.client import pin_check
+from scheduling.models import CustodyEntry, Task
+from scheduling.pins import pin_matches
+from scheduling.services import task_allocate
+from tests import factories
+from tests.scheduling.conftest import Beater, event, plans, request, robot_ready, status
+
+LOCKING = [{"code": "A", "lockable": True}, {"code": "B"}]
+
+
+@pytest.fixture
+def locking(site):
+    """R2, with a lockable compartment, beside R1, which has none."""
+    dock = Waypoint.objects.get(site=site, code="1F-DOCK-2")
+    return robot_ready(factories.robot_create(site, "R2", dock=dock, compartments=LOCKING))
+
+
+@pytest.fixture
+def api(staff):
+    return Client(HTTP_AUTHORIZATION=f"Bearer {staff.api_token_plain}")
+
+
+def order(api, **overrides):
+    body = {
+        "sender": "Pharmacy",
+        "receiver": "Ward 3",
+        "contents": "Morphine",
+        "pickups": ["1F-PHARM"],
+        "dropoffs": ["3F-WARD"],
+        "secure": True,
+        **overrides,
+    }
+    return api.post("/api/v1/tasks/", body, content_type="application/json")
+
+
+def test_compartments_in_the_site_file_set_the_capacity(db):
+    data = copy.deepcopy(factories.TINY_SITE)
+    data["robots"] = [{"code": "RX", "dock": "1F-DOCK-1", "compartments": LOCKING}]
+    site_load(data=data)
+
+    robot = Robot.objects.get(code="RX")
+    assert (robot.capacity, robot.lockable_compartments) == (2, ["A"])
+
+    data["robots"][0]["capacity"] = 4
+    data["robots"][0]["compartments"] = [{"code": "A"}, {"code": "A", "lockable": "yes"}]
+    with pytest.raises(SiteFileInvalid) as refused:
+        site_load(data=data)
+    problems = "\n".join(refused.value.problems)
+    assert "robots[0].compartments[1].code: duplicate compartment 'A'" in problems
+    assert "robots[0].compartments[1].lockable" in problems
+    assert "robots[0].capacity: 4 differs from its 2 compartments" in problems
+
+
+def test_the_pin_is_answered_once_and_only_its_salted_hash_is_kept(api, site):
+    created = order(api)
+
+    assert created.status_code == 201, created.content
+    pin = created.json()["pin"]
+    assert re.fullmatch(r"\d{6}", pin)
+    task = Task.objects.get()
+    assert task.secure
+    assert pin not in (task.pin_hash, task.pin_salt)
+    assert pin_matches(pin, task.pin)
+    assert task.pin.iterations >= 100_000
+    assert "pin" not in api.get(f"/api/v1/tasks/{task.code}").json()
+    order(api)
+    assert Task.objects.latest("pk").pin_salt != task.pin_salt  # a salt of its own
+
+
+def test_a_secure_delivery_cannot_repeat(api, site):
+    refused = order(api, repeat={"times": ["09:00"]})
+
+    assert refused.status_code == 400
+    assert refused.json()["detail"] == {
+        "secure": ["a secure delivery cannot repeat: each has a PIN of its own"]
+    }
+    assert not Task.objects.exists()
+
+
+def test_it_goes_only_to_a_robot_with_a_lockable_compartment(r1, site):
+    task = request(site, secure=True)
+    assert not task_allocate(task_id=task.pk)
+    task.refresh_from_db()
+    assert task.waiting_reason == "secure: no available robot has a lockable compartment"
+
+    dock = Waypoint.objects.get(site=site, code="1F-DOCK-2")
+    far = robot_ready(factories.robot_create(site, "R2", dock=dock, compartments=LOCKING))
+    assert task_allocate(task_id=task.pk)
+    task.refresh_from_db()
+    assert task.robot == far  # though R1 is as near
+
+
+def test_the_plan_lets_the_robot_check_the_pin_offline(locking, site):
+    task = request(site, secure=True)
+    assert task_allocate(task_id=task.pk)
+
+    [plan] = plans(Beater(locking).beat())
+
+    secure = plan["tasks"][task.code]["secure"]
+    assert secure["max_attempts"] == 3
+    assert set(secure["pin"]) == {"algorithm", "iterations", "salt", "hash"}
+    assert pin_check(task.pin_plain, secure)
+    assert not pin_check("000000" if task.pin_plain != "000000" else "111111", secure)
+    assert task.pin_plain not in str(plan)
+
+
+def test_every_hand_off_is_kept_in_the_custody_record_and_history(locking, site, nurse):
+    task = request(site, secure=True, user=nurse, dropoffs=("1F-PHARM",), pickups=("2F-LAB",))
+    task_allocate(task_id=task.pk)
+    beater = Beater(locking)
+    loaded = event("loaded", task.code, 0, compartment="A", opened_with="badge", opened_by="b-17")
+    beater.beat(events=[loaded])
+    opened = event("unloaded", task.code, 1, compartment="A", opened_with="pin", failed_attempts=2)
+    beater.beat(events=[opened])
+
+    assert status(task) == "delivered"
+    rows = list(
+        CustodyEntry.objects.values_list(
+            "kind", "station", "compartment", "opened_with", "opened_by", "failed_attempts"
+        )
+    )
+    assert rows == [
+        ("loaded", "Laboratory", "A", "badge", "b-17", 0),
+        ("unloaded", "Pharmacy", "A", "pin", "", 2),
+    ]
+    notes = list(task.history.values_list("note", flat=True))
+    assert "Loaded into compartment A at Laboratory (b-17)" in notes
+    handed = "Handed over at Pharmacy from compartment A, opened with the delivery's PIN"
+    assert f"{handed} after 2 wrong PINs" in notes
+
+
+def test_wrong_pins_keep_it_locked_and_alert_operators(locking, site):
+    task = request(site, secure=True)
+    task_allocate(task_id=task.pk)
+    beater = Beater(locking)
+    beater.beat(events=[event("loaded", task.code, 0, compartment="A")])
+
+    locked = event("compartment_locked", task.code, 1, compartment="A", failed_attempts=3)
+    beater.beat(events=[locked])
+
+    assert status(task) == "picked_up"
+    entry = CustodyEntry.objects.last()
+    assert (entry.kind, entry.compartment, entry.failed_attempts) == ("locked_out", "A", 3)
+    [alert] = Alert.objects.all()
+    assert (alert.kind, alert.robot, alert.task) == ("compartment_locked", locking, task.code)
+    assert "Compartment A kept locked at Laboratory after 3 wrong PINs" in alert.message
+
+
+def test_compartment_locked_needs_a_compartment(locking, site):
+    task = request(site, secure=True)
+    task_allocate(task_id=task.pk)
+
+    response = Beater(locking).post(events=[event("compartment_locked", task.code)])
+
+    assert response.status_code == 400
+    assert response.json()["detail"] == {
+        "events[0].compartment": ["required for compartment_locked"]
+    }
+
+
+def test_operators_export_the_custody_chain_of_a_date_range_as_csv(locking, site, operator):
+    task = request(site, secure=True, contents="Morphine")
+    task_allocate(task_id=task.pk)
+    Beater(locking).beat(events=[event("loaded", task.code, 0, compartment="A")])
+    client = Client()
+    client.force_login(operator)
+    today = timezone.localdate(task.created_at).isoformat()
+
+    response = client.get(f"/custody.csv?from={today}&to={today}")
+
+    assert response.status_code == 200
+    assert response["Content-Type"].startswith("text/csv")
+    [header, row] = list(csv.reader(io.StringIO(response.content.decode())))
+    assert header[:6] == ["task", "contents", "sender", "receiver", "requester", "hand-off"]
+    assert (row[0], row[1], row[5], row[7], row[9]) == (
+        task.code,
+        "Morphine",
+        "Loaded",
+        "R2",
+        "A",
+    )
+    bad = client.get("/custody.csv?from=2026-13-01&to=2026-11-01")
+    assert bad.status_code == 400
+    assert bad.json() == {
+        "error": "invalid",
+        "detail": {"from": ["a date as YYYY-MM-DD, not '2026-13-01'"]},
+    }
+    earlier = client.get("/custody.csv?from=2026-11-02&to=2026-11-01")
+    assert earlier.json()["detail"] == {"to": ["is before from"]}
+
+
+def test_nurses_may_not_export_custody(site, nurse):
+    client = Client()
+    client.force_login(nurse)
+
+    assert client.get("/custody.csv?from=2026-11-01&to=2026-11-02").status_code == 403
