@@ -83,6 +83,7 @@ def lease_release_post(request, lease_id: str):
     may still be inside); the next robot in line is granted at once."""
     pk = Lease.pk_from_public_id(lease_id)
     lease = get_object_or_404(Lease.objects.select_related("robot", "resource__site"), pk=pk)
+    site_required(request.user, lease.resource.site_id, f"lease {lease_id!r}")
     granted = lease_revoke(lease=lease, by=request.user)
     where = f"{lease.resource.code} ({lease.robot.code})"
     if granted is None:

@@ -9,6 +9,7 @@ from django.urls import reverse
 from django.views.decorators.http import require_POST
 
 from core.access import is_operator, member_required
+from robots.membership import site_required
 from scheduling.models import RecurringRequest
 from scheduling.selectors import recurring_for, repeat_in_words
 from scheduling.services import recurring_stop
@@ -39,6 +40,7 @@ def recurring_list(request):
 @member_required
 def recurring_stop_post(request, pk: int):
     recurring = get_object_or_404(RecurringRequest.objects.select_related("site"), pk=pk)
+    site_required(request.user, recurring.site_id, "such periodic request")
     if not (is_operator(request.user) or recurring.requester_id == request.user.pk):
         raise PermissionDenied("only operators may stop other people's periodic requests")
     cancelled = recurring_stop(recurring=recurring, by=request.user)
