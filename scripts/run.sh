@@ -118,13 +118,14 @@ hook_prepare_fleet() {
 }
 # ---------------------------------------------------------------------------------------------
 
-# Files this script and the servers create (var/, db.sqlite3, logs) are the owner's alone.
-umask 077
 mkdir -p var
 chmod 700 var
 ensure_venv
 ensure_services
 ensure_nginx
+# From here on (after apt and the services' setup), files this script and the servers create
+# (var/, db.sqlite3, collected static files) are the owner's alone.
+umask 077
 ensure_secret_key
 check_ports_free
 

@@ -38,7 +38,8 @@ def robot_detail(*, code: str) -> RobotDetail | None:
 
 
 def page_site(request) -> tuple[Site, list[Site]]:
-    """The site a page is about (?site=<code>, else the first) and every site, for a choice."""
+    """The site a page is about (?site=<code>, else the first) and the user's sites, for a
+    choice (robots/membership.py)."""
     every = sites_all()
     if not every:
         raise Http404("no site is loaded yet (manage.py load_site FILE)")

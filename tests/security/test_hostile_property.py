@@ -13,7 +13,7 @@ from scheduling.models import Task, TaskTransition
 from tests import factories
 
 EXAMPLES = settings(
-    max_examples=150,
+    max_examples=100,
     deadline=None,
     suppress_health_check=[
         HealthCheck.function_scoped_fixture,

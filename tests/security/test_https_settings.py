@@ -73,3 +73,10 @@ def test_behind_the_tls_proxy_cookies_are_secure_and_hsts_is_sent(https_server):
     assert csrf.secure
     assert "script-src 'self'" in response.headers["Content-Security-Policy"]
     assert response.headers["X-Frame-Options"] == "DENY"
+
+
+def test_healthz_answers_plain_http_for_load_balancers(https_server):
+    response = requests.get(f"{https_server}/healthz", allow_redirects=False, timeout=30)
+
+    assert response.status_code in (200, 503)  # not redirected; no sweeps run here
+    assert response.json()["database"] == "ok"
