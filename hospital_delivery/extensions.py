@@ -8,14 +8,17 @@ reach up, it calls a hook, and the project package, which sits above all of them
 answers.
 """
 
+from celery.signals import task_postrun
 from django.contrib.auth.signals import user_logged_out
 
 from boards.hooks import heartbeat_applied
 from core.changes import changed
+from reports import metrics
 from resources import receivers as resources
 from robots.hooks import presence_changed
 from scheduling import receivers as scheduling
 from ui.live import publish
+from webhooks import receivers as webhooks
 
 
 def connect() -> None:
@@ -26,6 +29,10 @@ def connect() -> None:
     # A robot gone offline leaves the lease queues it waits in, then gives back its tasks.
     presence_changed.connect(resources.on_presence_changed, scheduling.on_presence_changed)
     # Whatever changed that people can see goes to the site's live pages after commit.
-    changed.connect(publish.on_change)
+    # Then, for other hospital systems, a task's status change becomes a webhook delivery
+    # stored in the same transaction (sent after commit, retried until answered).
+    changed.connect(publish.on_change, webhooks.on_change)
     # Logging out closes that session's live pages (Django's own signal).
     user_logged_out.connect(publish.on_user_logged_out, dispatch_uid="ui-live-logout")
+    # Each Celery beat sweep's last success, for the metrics (Celery's own signal).
+    task_postrun.connect(metrics.on_task_postrun, weak=False, dispatch_uid="reports-sweep-runs")

@@ -1,5 +1,5 @@
 from robots.models.alerts import Alert, AlertKind
-from robots.models.fleet import PresenceChange, Robot, RobotBoot
+from robots.models.fleet import PresenceChange, Robot, RobotActivity, RobotBoot, robot_activity
 from robots.models.map import Edge, Floor, Resource, ResourceWaypoint, Site, Waypoint
 
 __all__ = [
@@ -11,7 +11,9 @@ __all__ = [
     "Resource",
     "ResourceWaypoint",
     "Robot",
+    "RobotActivity",
     "RobotBoot",
     "Site",
     "Waypoint",
+    "robot_activity",
 ]
