@@ -1,3 +1,5 @@
+import time
+
 from django.conf import settings
 from django.db import transaction
 from drf_spectacular.utils import OpenApiResponse, extend_schema
@@ -5,6 +7,7 @@ from rest_framework import exceptions, status
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
+from boards.metrics import heartbeat_observe
 from boards.protocol import heartbeat_reply_wire
 from boards.serializers import HeartbeatResponseSerializer, HeartbeatSerializer
 from boards.services import HeartbeatRejected, heartbeat_apply
@@ -49,11 +52,14 @@ class HeartbeatView(APIView):
     parser_classes = []  # read_json_body parses, to enforce the protocol's size limit
 
     def dispatch(self, request, *args, **kwargs):
+        started = time.perf_counter()
         with transaction.atomic():
             response = super().dispatch(request, *args, **kwargs)
             if response.status_code >= 400:
                 transaction.set_rollback(True)
-            return response
+        seconds = time.perf_counter() - started  # the commit included
+        heartbeat_observe(status_code=response.status_code, seconds=seconds)
+        return response
 
     @extend_schema(
         operation_id="robot_heartbeat",

@@ -8,7 +8,7 @@ reach up, it calls a hook, and the project package, which sits above all of them
 answers.
 """
 
-from celery.signals import task_success
+from celery.signals import task_postrun, task_success
 from django.contrib.auth.signals import user_logged_out
 from django.db.backends.signals import connection_created
 
@@ -17,10 +17,12 @@ from boards.hooks import heartbeat_applied
 from core import watchdog
 from core.changes import changed
 from hospital_delivery import privatefiles
+from reports import metrics
 from resources import receivers as resources
 from robots.hooks import presence_changed, token_issued
 from scheduling import receivers as scheduling
 from ui.live import publish
+from webhooks import receivers as webhooks
 
 
 def connect() -> None:
@@ -33,10 +35,14 @@ def connect() -> None:
     # A robot's new token closes the push sockets opened with its old one.
     token_issued.connect(push.robot_sockets_close)
     # Whatever changed that people can see goes to the site's live pages after commit.
-    changed.connect(publish.on_change)
+    # Then, for other hospital systems, a task's status change becomes a webhook delivery
+    # stored in the same transaction (sent after commit, retried until answered).
+    changed.connect(publish.on_change, webhooks.on_change)
     # Logging out closes that session's live pages (Django's own signal).
     user_logged_out.connect(publish.on_user_logged_out, dispatch_uid="ui-live-logout")
     # Each sweep that finishes records when (the sweeps' watchdog; Celery's own signal).
     task_success.connect(watchdog.sweep_ran, weak=False, dispatch_uid="sweeps-watchdog")
     # A new SQLite connection makes the database file readable by its owner only.
     connection_created.connect(privatefiles.sqlite_private, dispatch_uid="sqlite-private")
+    # Each Celery beat sweep's last success, for the metrics (Celery's own signal).
+    task_postrun.connect(metrics.on_task_postrun, weak=False, dispatch_uid="reports-sweep-runs")

@@ -9,7 +9,7 @@ from pathlib import Path
 import dj_database_url
 from django.core.exceptions import ImproperlyConfigured
 
-from hospital_delivery.env import env_bool, env_int, env_list, env_str
+from hospital_delivery.env import env_bool, env_int, env_list, env_minutes, env_str
 
 BASE_DIR = Path(__file__).resolve().parent.parent
 
@@ -67,6 +67,8 @@ INSTALLED_APPS = [
     "resources",
     "scheduling",
     "ui",
+    "reports",
+    "webhooks",
     "hospital_delivery",
 ]
 
@@ -250,6 +252,13 @@ if ALLOCATION_POLICY not in ALLOCATION_POLICIES:
 # and always when this is off, by the Celery worker.
 ALLOCATE_ON_REQUEST = env_bool("ALLOCATE_ON_REQUEST", True)
 
+# Minutes from a delivery's requested time to its due time, per priority ("*": any other), for
+# the reports' on-time share and the past-due metric (reports/due.py).
+DELIVERY_DUE_MINUTES = env_minutes("DELIVERY_DUE_MINUTES", "urgent=15,normal=60,*=60")
+
+# Bearer token that may scrape /metrics (besides operators' and staff's logins); none if empty.
+METRICS_TOKEN = env_str("METRICS_TOKEN", "")
+
 # Robot heartbeat bodies above this size are refused with 413 (protocol v1).
 HEARTBEAT_MAX_BYTES = 64 * 1024
 
@@ -281,6 +290,8 @@ CELERY_TIMEZONE = TIME_ZONE
 # Sweeps re-find anything a lost Celery message left behind, so none of them is critical alone.
 PRESENCE_SWEEP_SECONDS = env_int("PRESENCE_SWEEP_SECONDS", 1, minimum=1)
 SWEEP_SECONDS = env_int("SWEEP_SECONDS", 1, minimum=1)
+# Webhook deliveries whose retry time came (or whose Celery message was lost) are sent by a sweep.
+WEBHOOK_SWEEP_SECONDS = env_int("WEBHOOK_SWEEP_SECONDS", 5, minimum=1)
 
 
 def _sweep(task: str, every: float) -> dict:
@@ -294,6 +305,7 @@ CELERY_BEAT_SCHEDULE = {
     "scheduling-ack-timeout-sweep": _sweep("scheduling.tasks.ack_timeout_sweep", SWEEP_SECONDS),
     "scheduling-recurring-sweep": _sweep("scheduling.tasks.recurring_sweep", 30),
     "scheduling-unload-timeout-sweep": _sweep("scheduling.tasks.unload_timeout_sweep", 10),
+    "webhooks-send-sweep": _sweep("webhooks.tasks.send_sweep", WEBHOOK_SWEEP_SECONDS),
 }
 
 LOG_LEVEL = env_str("LOG_LEVEL", "INFO")

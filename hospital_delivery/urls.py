@@ -23,4 +23,6 @@ urlpatterns = [
     path("accounts/login/", auth_views.LoginView.as_view(), name="login"),
     path("accounts/logout/", auth_views.LogoutView.as_view(), name="logout"),
     path("", include("ui.urls")),
+    path("", include("reports.urls")),  # /reports/ and /metrics
+    path("", include("webhooks.urls")),  # /webhooks/
 ]

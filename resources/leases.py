@@ -33,6 +33,7 @@ from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.services import AppliedHeartbeat, HeartbeatRejected, board_post, board_withdraw
 from core import changes
 from resources.choices import LeaseEndCause, LeaseState
+from resources.metrics import lease_wait_observe
 from resources.models import Lease
 from robots.alerts import alert_acknowledge, alert_raise
 from robots.mapcache import site_map
@@ -322,7 +323,7 @@ def _acquire(*, robot: Robot, resource: Resource, request_id: str, to_floor, now
         to_floor_id=to_floor_id,
     )
     if _free(resource, live) > 0:
-        lease.grant(now=now, timeout=resource.site.grant_timeout)
+        _grant(lease, resource=resource, now=now)
     lease.save()
     position = sum(each.state == LeaseState.QUEUED for each in live) + 1
     _board_sync(lease, resource=resource, position=position, fresh=True)
@@ -405,9 +406,14 @@ def _serve(resource: Resource, live: list[Lease], *, now) -> list[Lease]:
     waiting = [lease for lease in live if lease.state == LeaseState.QUEUED]
     granted = waiting[: max(_free(resource, live), 0)]
     for lease in granted:
-        lease.grant(now=now, timeout=resource.site.grant_timeout)
+        _grant(lease, resource=resource, now=now)
         _save_and_tell(lease, resource=resource, fields=GRANT_FIELDS)
     return granted
+
+
+def _grant(lease: Lease, *, resource: Resource, now) -> None:
+    lease.grant(now=now, timeout=resource.site.grant_timeout)
+    lease_wait_observe(kind=resource.kind, seconds=(now - lease.requested_at).total_seconds())
 
 
 def _save_and_tell(lease: Lease, *, resource: Resource, fields) -> None:

@@ -113,6 +113,8 @@ class Lease(models.Model):
             models.Index(
                 fields=["expires_at"], condition=Q(state=LeaseState.GRANTED), name="lease_grant_due"
             ),
+            # The reports' waits per resource within a period.
+            models.Index(fields=["resource", "requested_at"], name="lease_resource_requested"),
         ]
 
     def __str__(self):

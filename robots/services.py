@@ -17,7 +17,7 @@ from core import changes
 from core.tokens import token_new
 from robots.choices import Presence
 from robots.hooks import presence_changed, token_issued
-from robots.models import PresenceChange, Robot, RobotBoot, Site
+from robots.models import PresenceChange, Robot, RobotActivity, RobotBoot, Site, robot_activity
 from robots.selectors import available_robots
 
 # A robot whose visible state does not change is still reported this often (on its next
@@ -75,6 +75,7 @@ def robot_heartbeat_record(
     """
     fresh = _heartbeat_is_newest(robot, boot_id, seq, now)
     shown, last_seen = robot_visible(robot), robot.last_seen_at
+    doing = robot_activity(robot)
     update_fields = list(Robot.PRESENCE_FIELDS)
     if fresh:
         robot.apply_state(state, now)
@@ -84,6 +85,7 @@ def robot_heartbeat_record(
     robot.save(update_fields=update_fields)
     if previous is not None:
         _presence_record(robot, old=previous, new=Presence.ONLINE, at=now, cause="heartbeat")
+    _activity_record(robot, previous=doing, at=now)
     if robot_visible(robot) != shown or last_seen_refresh_due(last_seen, now):
         robot_publish(robot=robot)
     return fresh
@@ -151,8 +153,10 @@ def presence_sweep_step(*, robot: Robot, now: datetime) -> int:
     ).update(presence=new)
     if not claimed:
         return 0  # a heartbeat or another sweeper got there first
+    doing = robot_activity(robot)
     old, robot.presence = robot.presence, new
     _presence_record(robot, old=old, new=new, at=now, cause=PresenceChange.Cause.SWEEP)
+    _activity_record(robot, previous=doing, at=now)
     robot_publish(robot=robot)
     return 1
 
@@ -160,3 +164,9 @@ def presence_sweep_step(*, robot: Robot, now: datetime) -> int:
 def _presence_record(robot: Robot, *, old: str, new: str, at: datetime, cause: str) -> None:
     PresenceChange.objects.create(robot=robot, at=at, old=old, new=new, cause=cause)
     presence_changed(robot=robot, old=old, new=new, at=at)
+
+
+def _activity_record(robot: Robot, *, previous: str, at: datetime) -> None:
+    """Keep the activity history (reports' utilisation): one insert, only when it changed."""
+    if robot_activity(robot) != previous:
+        RobotActivity.objects.create(robot=robot, at=at, activity=robot_activity(robot))

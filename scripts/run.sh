@@ -8,7 +8,8 @@
 #
 # Environment: DATABASE_URL (default: SQLite file db.sqlite3), REDIS_URL, PORT_HTTP (8000),
 # PORT_WS (8001), WEB_WORKERS (3), SITE_FILE (sites/eulji.yaml), SECRET_KEY (default: generated
-# once into var/secret_key).
+# once into var/secret_key), METRICS_TOKEN (a bearer token for Prometheus to scrape /metrics),
+# PROMETHEUS_MULTIPROC_DIR (var/prometheus, emptied on every start).
 set -euo pipefail
 
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -153,4 +154,9 @@ cat >&2 <<EOF
   Ctrl-C stops everything.
 
 EOF
+# Prometheus counters of every gunicorn and Celery process go to files here, added up by
+# /metrics (prometheus_client's multiprocess mode); a fresh start begins from zero.
+export PROMETHEUS_MULTIPROC_DIR="${PROMETHEUS_MULTIPROC_DIR:-${PWD}/var/prometheus}"
+rm -rf "${PROMETHEUS_MULTIPROC_DIR}"
+mkdir -p "${PROMETHEUS_MULTIPROC_DIR}"
 exec "${VENV_DIR}/bin/honcho" start -f Procfile

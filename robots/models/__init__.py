@@ -1,5 +1,5 @@
 from robots.models.alerts import Alert, AlertKind
-from robots.models.fleet import PresenceChange, Robot, RobotBoot
+from robots.models.fleet import PresenceChange, Robot, RobotActivity, RobotBoot, robot_activity
 from robots.models.map import Edge, Floor, Resource, ResourceWaypoint, Site, Waypoint
 from robots.models.membership import SiteMembership
 
@@ -12,8 +12,10 @@ __all__ = [
     "Resource",
     "ResourceWaypoint",
     "Robot",
+    "RobotActivity",
     "RobotBoot",
     "Site",
     "SiteMembership",
     "Waypoint",
+    "robot_activity",
 ]

@@ -180,3 +180,25 @@ class PresenceChange(models.Model):
 
     def __str__(self):
         return f"{self.robot.code}: {self.old} -> {self.new} at {self.at:%Y-%m-%d %H:%M:%S}"
+
+
+class RobotActivity(models.Model):
+    """What a robot was doing from `at` until its next row: its reported status while online,
+    else its presence ("unreachable", "offline"). Written only when that changes (a heartbeat
+    reporting another status, a presence flip), for the reports' utilisation."""
+
+    robot = models.ForeignKey(Robot, on_delete=models.CASCADE, related_name="activities")
+    at = models.DateTimeField()
+    activity = models.CharField(max_length=20)
+
+    class Meta:
+        ordering = ["robot", "at", "id"]
+        indexes = [models.Index(fields=["robot", "at"], name="robot_activity_at")]
+
+    def __str__(self):
+        return f"{self.robot_id}: {self.activity} from {self.at:%Y-%m-%d %H:%M:%S}"
+
+
+def robot_activity(robot: Robot) -> str:
+    """The activity a robot's stored state amounts to (RobotActivity.activity)."""
+    return robot.status if robot.presence == Presence.ONLINE else robot.presence

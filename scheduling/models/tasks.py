@@ -109,6 +109,8 @@ class Task(models.Model):
                 name="task_ack_due",
             ),
             models.Index(fields=["robot", "status"], name="task_robot_status"),
+            # The reports (reports/selectors.py): a site's tasks requested within a period.
+            models.Index(fields=["site", "requested_time"], name="task_site_requested"),
         ]
 
     def __str__(self):
@@ -195,6 +197,14 @@ class TaskTransition(models.Model):
 
     class Meta:
         ordering = ["id"]
+        indexes = [
+            # The reports' failures and cancellations within a period.
+            models.Index(
+                fields=["at"],
+                condition=Q(new__in=[TaskStatus.FAILED, TaskStatus.CANCELLED]),
+                name="task_transition_ended",
+            ),
+        ]
 
     def __str__(self):
         return f"{task_code(self.task_id)}: {self.old or '-'} -> {self.new} ({self.cause})"

@@ -31,6 +31,7 @@ from scheduling.allocator import (
     best_plan,
 )
 from scheduling.choices import Cause, Priority, TaskStatus
+from scheduling.metrics import ALLOCATION_SECONDS
 from scheduling.models import AllocationLock, Task, TaskStop
 from scheduling.selectors import HeldRoute, robot_route, robot_routes, task_stops
 from scheduling.services.history import allocation_enqueue, task_record
@@ -141,6 +142,7 @@ def _allocation_lock(site_id: int, *, wait: bool = True) -> Site | None:
     return lock.site if lock else None
 
 
+@ALLOCATION_SECONDS.time()
 def _allocate(task: Task, site: Site, now: datetime, stops: list[TaskStop] | None = None) -> bool:
     new = task_stops(task, task.stops.all() if stops is None else stops, site=site)
     routes = robot_routes(robots=robots_for_allocation(site=site))

@@ -15,9 +15,16 @@ them at, and the production schedule is what has to cope with the losses.
 
 What must hold: every delivery completes; every event a robot sent is recorded exactly once
 and applied once; no two robots ever held the elevator (or any capacity-1 resource) at once.
+
+Monitoring and other systems watch the same run: /metrics, scraped before the deliveries are
+ordered and after they are done (prometheus_client's multiprocess mode across the gunicorn
+workers and the Celery worker, as run.sh runs it), shows the figures move; two webhook
+receivers, one of which fails its first requests, each hear of every status change of every
+delivery, signed, and the failing one gets what it refused on a retry.
 """
 
 import pytest
+import requests
 
 from bench.stack import Stack
 from boards.models import RobotEvent
@@ -29,6 +36,9 @@ from robotsim.simulator import Behaviour
 from robotsim.traffic import HttpTaskApi
 from scheduling.models import Task, TaskStop, TaskTransition
 from tests import factories, servers
+from tests.reports.metrics import value
+from tests.webhooks.conftest import subscribe
+from tests.webhooks.receiver import HookReceiver
 
 pytestmark = [pytest.mark.slow, pytest.mark.django_db(transaction=True)]
 
@@ -43,6 +53,7 @@ DELIVERIES = [
 # that robot's route least; robotsim's in-process tests cover it). One task per robot at a
 # time makes all three robots drive at once and queue for the elevator, door and corridor.
 SINGLE_TASK = {"ALLOCATION_POLICY": "single"}
+METRICS_TOKEN = "e2e-metrics-token"
 NETWORK = NetworkModel(
     request_loss=0.10,
     response_loss=0.10,
@@ -63,10 +74,25 @@ def robots(site):
 
 
 @pytest.fixture
-def stack(transactional_db):
+def stack(transactional_db, tmp_path):
     url = servers.test_database_url()
-    with Stack(database_url=url, web_workers=2, beat=True, env=SINGLE_TASK) as stack:
+    env = {
+        **SINGLE_TASK,
+        "METRICS_TOKEN": METRICS_TOKEN,
+        "PROMETHEUS_MULTIPROC_DIR": str(tmp_path),
+        "WEBHOOK_SWEEP_SECONDS": "1",
+    }
+    with Stack(database_url=url, web_workers=2, beat=True, env=env) as stack:
         yield stack
+
+
+@pytest.fixture
+def receivers(site):
+    """Another system that answers at once, and one that fails its first five requests."""
+    with HookReceiver() as steady, HookReceiver(fail_first=5) as flaky:
+        steady.subscription = subscribe(site, steady.url, name="Laboratory system")
+        flaky.subscription = subscribe(site, flaky.url, name="Pharmacy system")
+        yield steady, flaky
 
 
 @pytest.fixture
@@ -106,18 +132,24 @@ def all_completed(codes):
     return check
 
 
-def test_every_delivery_completes_exactly_once_without_sharing_the_elevator(fleet, stack, staff):
+def test_every_delivery_completes_exactly_once_without_sharing_the_elevator(
+    receivers, fleet, stack, staff
+):
     servers.poll(
         lambda: all(loop.client.seq > 0 and loop.robot.client.unsent == 0 for loop in fleet.loops),
         timeout=20,
         what="every robot heard from",
     )
+    before = scrape(stack)
 
     codes = order_all(stack, staff)
 
     servers.poll(all_completed(codes), timeout=60, interval=0.2, what="every delivery completed")
     servers.poll(fleet.all_idle_at_dock, timeout=30, interval=0.2, what="every robot home")
+    after = scrape(stack)  # while the robots still heartbeat
     fleet.stop()
+    _assert_metrics_moved(before, after, codes)
+    _assert_webhooks_heard_every_change(receivers, codes)
 
     assert fleet.errors == []
     assert all(loop.refused == 0 for loop in fleet.loops)
@@ -166,3 +198,54 @@ def _assert_capacity_respected():
         )
         for (_, ended, robot), (started, _, other) in zip(held, held[1:], strict=False):
             assert ended <= started, f"{robot} and {other} both held {resource.code}"
+
+
+def scrape(stack) -> str:
+    headers = {"Authorization": f"Bearer {METRICS_TOKEN}"}
+    response = requests.get(f"{stack.http_url}/metrics", headers=headers, timeout=30)
+    assert response.status_code == 200, response.text
+    return response.text
+
+
+def _assert_metrics_moved(before: str, after: str, codes):
+    site = factories.TINY_SITE["site"]
+    heartbeats = value(after, "hd_heartbeats_total", code="200")
+    assert heartbeats > value(before, "hd_heartbeats_total", code="200") > 0
+    assert value(after, "hd_heartbeat_seconds_count") > value(before, "hd_heartbeat_seconds_count")
+    assert value(before, "hd_tasks", site=site, status="completed") == 0
+    assert value(after, "hd_tasks", site=site, status="completed") == len(codes)
+    assert value(after, "hd_allocation_seconds_count") >= len(codes)  # web and Celery workers
+    assert value(after, "hd_lease_wait_seconds_count", kind="elevator") > 0
+    assert value(after, "hd_robots", site=site) == 3
+    assert value(after, "hd_robots", site=site, presence="online") > 0  # lossy: some may lag
+    assert value(before, "hd_robots", site=site, status="unknown") == 0  # all reported
+    assert value(after, "hd_sweep_last_success_timestamp_seconds") > 0
+    assert value(after, "hd_redis_up") == 1
+
+
+def _assert_webhooks_heard_every_change(receivers, codes):
+    changes = {
+        f"task-transition-{pk}": (code, new)
+        for code in codes
+        for pk, old, new in TaskTransition.objects.filter(task_id=int(code[2:])).values_list(
+            "pk", "old", "new"
+        )
+        if old != new
+    }
+    steady, flaky = receivers
+
+    def everything_heard():
+        return all({got.event_id for got in r.accepted()} >= set(changes) for r in receivers)
+
+    servers.poll(everything_heard, timeout=60, interval=0.2, what="every change delivered")
+    for receiver in receivers:
+        accepted = receiver.accepted()
+        assert {got.event_id for got in accepted} == set(changes)
+        assert all(got.signed_with(receiver.subscription.secret) for got in receiver.received)
+        told = {
+            got.event_id: (got.payload["task"]["code"], got.payload["task"]["status"])
+            for got in accepted
+        }
+        assert told == changes
+    assert len(flaky.refused()) == 5
+    assert {got.event_id for got in flaky.refused()} <= {got.event_id for got in flaky.accepted()}
