@@ -13,6 +13,7 @@ class AlertKind(models.TextChoices):
     TASK_FAILED = "task_failed", "Delivery failed"
     OFFLINE_WITH_LOAD = "offline_with_load", "Robot offline with items on board"
     ROBOT_ERROR = "robot_error", "Robot reports an error"
+    DEADLINE_AT_RISK = "deadline_at_risk", "Delivery will be late"
 
 
 class AlertQuerySet(models.QuerySet):

@@ -9,6 +9,7 @@ from django.utils import timezone
 
 from robots.models import Site, Waypoint
 from scheduling.choices import Cause, Priority, StopAction, TaskStatus
+from scheduling.deadlines import due_at_default
 from scheduling.models import RecurringRequest, Task, TaskStop
 from scheduling.recurrence import next_occurrence, occurrences
 from scheduling.selectors import stations_by_code
@@ -33,13 +34,16 @@ def task_request(
     contents: str,
     pickups: list[Waypoint],
     dropoffs: list[Waypoint],
-    priority: str = Priority.NORMAL,
+    priority: str = Priority.ROUTINE,
     requested_time: datetime | None = None,
+    due_by: datetime | None = None,
     repeat: dict | None = None,
     now: datetime | None = None,
 ) -> Task:
     """Create a delivery task (due at once unless requested for later), or with `repeat` a
-    periodic request and its first instance, which is returned."""
+    periodic request and its first instance, which is returned.
+
+    It must be dropped off by `due_by`, else by the site's default for its priority."""
     now = now or timezone.now()
     what = {"sender": sender, "receiver": receiver, "contents": contents, "priority": priority}
     if repeat is None:
@@ -50,6 +54,7 @@ def task_request(
             pickups=pickups,
             dropoffs=dropoffs,
             requested_time=requested_time or now,
+            due_by=due_by,
             now=now,
         )
     starts_at = max(requested_time or now, now)
@@ -79,15 +84,19 @@ def task_create(
     dropoffs: list[Waypoint],
     requested_time: datetime,
     now: datetime,
+    due_by: datetime | None = None,
     **extra,
 ) -> Task:
     """One task with its stops; allocated (settings.ALLOCATE_ON_REQUEST) or enqueued for
     allocation at once if its time has come."""
     due = requested_time <= now
+    priority = what.get("priority", Priority.ROUTINE)
     task = Task.objects.create(
         site=site,
         requester=requester,
         requested_time=requested_time,
+        due_at=due_by
+        or due_at_default(site=site, priority=priority, requested_time=requested_time),
         status=TaskStatus.DUE if due else TaskStatus.SCHEDULED,
         created_at=now,
         **what,

@@ -170,16 +170,21 @@ def test_a_robot_whose_last_task_fails_goes_to_its_dock(r1, site):
     assert len(pending_plans(r1)) == 1
 
 
-def test_a_heartbeat_with_a_task_event_needs_five_more_queries(r1, site, django_assert_num_queries):
+def test_a_heartbeat_with_a_task_event_needs_sixteen_more_queries(
+    r1, site, django_assert_num_queries
+):
     task = request(site)
     task_allocate(task_id=task.pk)
     beater = Beater(r1)
     beater.ack_all(beater.beat())
 
     # The heartbeat's own 7 (tests/boards/test_heartbeat_queries.py, with one event) + read the
-    # task and its stops, mark the stop done, move the task, record it. A heartbeat without
-    # task events or plan acks needs none more.
-    with django_assert_num_queries(12):
+    # task and its stops, mark the stop done, move the task, record it (5) + the robot's
+    # progress (scheduling.services.etas, 11): look for its arrival there (its dwell), read its
+    # route and its plan, the elevator and the door on its next leg (1) and their lease queues
+    # and typical holds (3 each), store the ETAs. A heartbeat without task events or plan acks
+    # needs none more.
+    with django_assert_num_queries(23):
         beater.beat(events=[event("loaded", task.code, 0)])
     with django_assert_num_queries(7):
         beater.beat(events=[event("arrived")])
