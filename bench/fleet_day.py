@@ -1,13 +1,15 @@
-"""A simulated hospital day under three allocation policies, on the same request stream.
+"""A simulated hospital day under every allocation policy, on the same request stream.
 
     python bench/fleet_day.py            # 08:00-20:00 on the Eulji demo site, 4 robots (minutes)
     python bench/fleet_day.py --quick    # one hour, 2 robots: what CI runs
 
 The source paper's central claim (section 1): a robot that can take more tasks while it is out
 (online multi-task allocation, on-MTA) delivers better than one that takes a new task only when
-it is empty (single-task allocation, STA, how hospital fleets ran before). Measured here: (a) the
-paper's on-MTA (least added travel), (b) ours, on-MTA choosing the robot by added travel plus
-the waiting it causes, and (c) STA. Every run gets the same seeded request stream
+it is empty (single-task allocation, STA, how hospital fleets ran before). Measured here, as
+settings.ALLOCATION_POLICY: `paper`, the paper's rule (a standby robot first, the one reaching
+the pick-up soonest; else the robot whose route the task lengthens least), `least_travel` (the
+least added travel, standby or not), `delivery_time` (ours: added travel plus the waiting it
+causes) and `single` (STA). Every run gets the same seeded request stream
 (robotsim.traffic.day_requests: a morning peak of laboratory samples, medication from the
 pharmacy and medication rounds to several wards at 09:00, 13:00 and 17:00, sample kits,
 supplies) and the same simulated robots and staff.
@@ -46,7 +48,7 @@ if __package__ in (None, ""):  # run as a script: make the repository root impor
 ROOT = Path(__file__).resolve().parent.parent
 SITE_FILE = ROOT / "sites" / "eulji.yaml"
 DAY = datetime.date(2026, 3, 2)  # a Monday
-POLICIES = ("multi", "delivery_time", "single")
+POLICIES = ("paper", "least_travel", "delivery_time", "single")
 
 
 @dataclass(frozen=True)
@@ -79,6 +81,11 @@ class Result:
     per_robot: dict[str, int]  # deliveries completed by each robot
     wall: float  # real seconds the run took
     heartbeats: int
+    priorities: list[str]  # per delivered task, as to_dropoff
+    on_time: list[bool]  # per delivered task: dropped off by its due-by time
+    eta_error: list[float]  # seconds, ETA when assigned minus actual drop-off, per delivered task
+    charging_trips: int  # plans sending a robot to charge
+    lowest_battery: float  # the lowest battery any robot reported
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -170,29 +177,39 @@ def _print_table(results: list[Result]) -> None:
         ("request -> drop-off, mean", lambda r: _minutes(statistics.fmean(r.to_dropoff))),
         ("request -> drop-off, p90", lambda r: _minutes(_p90(r.to_dropoff))),
         ("request -> pick-up, mean", lambda r: _minutes(statistics.fmean(r.to_pickup))),
+        *_priority_rows(),
+        ("ETA error |p50|, assigned", lambda r: _minutes(_percentile(_abs(r.eta_error), 0.5))),
+        ("ETA error |p90|, assigned", lambda r: _minutes(_percentile(_abs(r.eta_error), 0.9))),
+        ("ETA error mean, assigned", lambda r: _minutes(_mean(r.eta_error))),
         ("robot travel, distance", lambda r: f"{r.distance / 1000:.1f} km"),
         ("robot travel, driving", lambda r: f"{r.driving / 3600:.1f} h"),
         ("elevator rides", lambda r: f"{r.rides} ({r.riding / 3600:.1f} h)"),
+        ("charging trips", lambda r: f"{r.charging_trips}"),
+        ("lowest battery", lambda r: f"{100 * r.lowest_battery:.0f} %"),
         ("deliveries per robot", lambda r: "/".join(str(n) for n in r.per_robot.values())),
         ("last drop-off", lambda r: _clock(r.last_delivery)),
         ("real time of the run", lambda r: f"{r.wall:.0f} s"),
         ("heartbeats", lambda r: f"{r.heartbeats}"),
     ]
-    multi, ours, single = (by_policy[policy] for policy in POLICIES)
-    print(
-        f"{'':<27}{'(a) multi':>13}{'(b) delivery':>14}{'(c) single':>13}{'a / c':>7}{'b / c':>7}"
-        f"\n{'':<27}{'(the paper)':>13}{'time (ours)':>14}{'(STA)':>13}"
-    )
+    columns = [by_policy[policy] for policy in POLICIES]
+    single = by_policy["single"]
+    print(f"{'':<27}" + "".join(f"{policy:>15}" for policy in POLICIES))
     for label, show in rows:
-        print(
-            f"{label:<27}{show(multi):>13}{show(ours):>14}{show(single):>13}"
-            f"{_ratio(label, multi, single):>7}{_ratio(label, ours, single):>7}"
-        )
+        cells = "".join(f"{show(result):>15}" for result in columns)
+        print(f"{label:<27}{cells}")
+    print(f"\nratio to single{'':<12}" + "".join(f"{policy:>15}" for policy in POLICIES))
+    for label in RATIOS:
+        cells = "".join(f"{_ratio(label, result, single):>15}" for result in columns)
+        print(f"{label:<27}{cells}")
     print(
-        "\n(a) online multi-task allocation as in the source paper: the robot whose route the\n"
-        "task lengthens least; (b) online multi-task allocation choosing the robot by added\n"
-        "travel plus the waiting it causes (ALLOCATION_POLICY=delivery_time); (c) single-task\n"
-        "allocation: a robot takes a task only when it holds none."
+        "\npaper: the source paper's rule (Sec. 3.1.2): a standby robot (holding no task) first,\n"
+        "the one reaching the pick-up soonest, else the robot whose route the task lengthens\n"
+        "least; least_travel: the robot whose route the task lengthens least, standby or not;\n"
+        "delivery_time: added travel plus the waiting it causes (the default); single: a robot\n"
+        "takes a task only when it holds none (single-task allocation).\n"
+        "On time: dropped off by its due-by time (the site's default for its priority).\n"
+        "ETA error: the drop-off ETA a task was given when assigned minus its actual drop-off\n"
+        "(|p50|, |p90|: of the absolute error; mean: negative = later than predicted)."
     )
 
 
@@ -213,6 +230,44 @@ def _ratio(label: str, a: Result, b: Result) -> str:
     return f"{value(a) / value(b):.2f}"
 
 
+PRIORITIES = ("stat", "urgent", "routine")
+
+
+def _priority_rows():
+    """Per priority: deliveries, mean and p90 request -> drop-off, share on time."""
+    rows = []
+    for priority in PRIORITIES:
+
+        def of(r: Result, priority=priority) -> list[int]:
+            return [n for n, p in enumerate(r.priorities) if p == priority]
+
+        rows += [
+            (f"{priority}: delivered", lambda r, of=of: f"{len(of(r))}"),
+            (
+                f"{priority}: -> drop-off mean",
+                lambda r, of=of: _minutes(_mean([r.to_dropoff[n] for n in of(r)])),
+            ),
+            (
+                f"{priority}: -> drop-off p90",
+                lambda r, of=of: _minutes(_p90([r.to_dropoff[n] for n in of(r)])),
+            ),
+            (f"{priority}: on time", lambda r, of=of: _share([r.on_time[n] for n in of(r)])),
+        ]
+    return rows
+
+
+def _mean(values: list[float]) -> float:
+    return statistics.fmean(values) if values else float("nan")
+
+
+def _share(flags: list[bool]) -> str:
+    return f"{100 * sum(flags) / len(flags):.0f} %" if flags else "-"
+
+
+def _abs(values: list[float]) -> list[float]:
+    return [abs(v) for v in values]
+
+
 def _minutes(seconds: float) -> str:
     return f"{seconds / 60:.1f} min"
 
@@ -223,8 +278,12 @@ def _clock(seconds: float) -> str:
 
 
 def _p90(values: list[float]) -> float:
+    return _percentile(values, 0.9)
+
+
+def _percentile(values: list[float], share: float) -> float:
     ordered = sorted(values)
-    return ordered[math.ceil(0.9 * len(ordered)) - 1] if ordered else float("nan")
+    return ordered[max(math.ceil(share * len(ordered)) - 1, 0)] if ordered else float("nan")
 
 
 # --- A child: one policy, one day ---------------------------------------------------------------
@@ -264,7 +323,7 @@ class _Day:
         from robots.services import robot_token_issue
         from robots.sitefile import site_file_read, site_load
         from robotsim.client import RobotClient
-        from robotsim.simulator import ManualClock, RobotLoop, SimRobot
+        from robotsim.simulator import Behaviour, ManualClock, RobotLoop, SimRobot
         from robotsim.traffic import Stations, day_requests
 
         self.settings = settings
@@ -294,6 +353,7 @@ class _Day:
                 clock=self.clock,
                 rng=random.Random(f"{seed}-{robot.code}"),
                 router=router,
+                behaviour=Behaviour.for_site(data),
             )
             self.loops.append(RobotLoop(sim))
         self.api = InProcessTaskApi(ApiToken.issue(_staff_user()))
@@ -304,6 +364,7 @@ class _Day:
         self.requests = [(at, body) for at, body in stream if at < self.day_end]
         self.codes: list[str] = []
         self.heartbeats = 0
+        self.first_eta: dict[int, datetime.datetime] = {}  # task pk -> ETA when assigned
 
     def run(self) -> None:
         from resources.leases import lease_sweep
@@ -324,7 +385,8 @@ class _Day:
                     before = loop.client.seq
                     loop.step(second)
                     self.heartbeats += loop.client.seq - before
-                due_sweep()
+                if due_sweep():
+                    self._note_etas()
                 if second % HOUSEKEEPING_EVERY == 0:
                     presence_sweep()
                     lease_sweep()
@@ -339,6 +401,15 @@ class _Day:
         if status != 201:
             raise RuntimeError(f"request refused ({status}): {reply}")
         self.codes.append(reply["code"])
+        self._note_etas()
+
+    def _note_etas(self) -> None:
+        """The ETA each task had when it was assigned (its first), to score it later."""
+        from scheduling.models import Task
+
+        estimated = Task.objects.filter(eta__isnull=False).exclude(pk__in=list(self.first_eta))
+        for pk, eta in estimated.values_list("pk", "eta"):
+            self.first_eta[pk] = eta
 
     def _all_done(self) -> bool:
         from scheduling.models import Task
@@ -347,6 +418,7 @@ class _Day:
         return not unfinished.exists() and all(loop.robot.idle_at_dock for loop in self.loops)
 
     def result(self, policy: str, *, wall: float) -> Result:
+        from boards.models import BoardMessage
         from scheduling.models import Task
 
         tasks = list(Task.objects.select_related("robot"))
@@ -374,6 +446,17 @@ class _Day:
             },
             wall=wall,
             heartbeats=self.heartbeats,
+            charging_trips=BoardMessage.objects.filter(
+                type="plan", body__stops__0__charge=True
+            ).count(),
+            lowest_battery=min(loop.robot.lowest_battery for loop in self.loops),
+            priorities=[t.priority for t in delivered],
+            on_time=[t.due_at is None or t.delivered_at <= t.due_at for t in delivered],
+            eta_error=[
+                (self.first_eta[t.pk] - t.delivered_at).total_seconds()
+                for t in delivered
+                if t.pk in self.first_eta
+            ],
         )
 
 

@@ -44,11 +44,14 @@ def plan_stop(*, task: str, stop: int, action: str, waypoint: str, via: list[str
     return entry
 
 
-def plan_dock_stop(*, waypoint: str, via: list[str]) -> dict:
-    """The one stop of a robot with nothing left to do (an addition to v1: action "dock")."""
+def plan_dock_stop(*, waypoint: str, via: list[str], charge: bool = False) -> dict:
+    """The one stop of a robot with nothing left to do (an addition to v1: action "dock");
+    `"charge": true` (a further addition) when it is sent there to charge."""
     entry = {"action": "dock", "waypoint": waypoint}
     if via:
         entry["via"] = via
+    if charge:
+        entry["charge"] = True
     return entry
 
 

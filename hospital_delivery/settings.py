@@ -237,10 +237,11 @@ SPECTACULAR_SETTINGS = {
 # How the scheduler gives out tasks (measured side by side in bench/fleet_day.py):
 # "delivery_time" (default): online multi-task allocation choosing the robot by added travel
 #   plus the waiting it causes (scheduling.allocator.allocate_for_delivery_time);
-# "multi": online multi-task allocation as in the source paper, the robot whose route the task
-#   lengthens least (least travel, but one busy robot collects the tasks and deliveries wait);
+# "paper": the source paper's rule (Sec. 3.1.2): a standby robot first (of several, the one
+#   reaching the pick-up soonest), else the robot whose route the task lengthens least;
+# "least_travel": the robot whose route the task lengthens least, standby or not;
 # "single": a robot takes a task only when it holds none, as fleets ran before the paper.
-ALLOCATION_POLICIES = ("delivery_time", "multi", "single")
+ALLOCATION_POLICIES = ("delivery_time", "paper", "least_travel", "single")
 ALLOCATION_POLICY = env_str("ALLOCATION_POLICY", "delivery_time")
 if ALLOCATION_POLICY not in ALLOCATION_POLICIES:
     raise ImproperlyConfigured(

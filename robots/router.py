@@ -238,6 +238,8 @@ class Leg:
     path: list[str]  # waypoint codes, both ends included; empty when unreachable
     via: list[str]  # per elevator ride: boarding then alighting waiting waypoint
     resources: list[str]  # guarding doors/corridors crossed and elevators ridden, in order
+    metres: float = 0.0  # driven (elevator rides excluded)
+    rides: int = 0  # elevator rides
 
 
 @dataclass(frozen=True)
@@ -283,11 +285,14 @@ class Router:
         if b not in tree.seconds:
             return Leg(seconds=math.inf, path=[], via=[], resources=[])
         steps = _steps_back(tree, b)
+        driven = sum(link.seconds for _, link in steps if not link.ride)
         return Leg(
             seconds=tree.seconds[b],
             path=[a] + [link.target for _, link in steps],
             via=[code for source, link in steps if link.ride for code in (source, link.target)],
             resources=_collapse([link.resource for _, link in steps if link.resource]),
+            metres=driven * self.site_map.robot_speed,
+            rides=sum(link.ride for _, link in steps),
         )
 
     def _tree(self, source: str) -> _Tree:

@@ -16,9 +16,9 @@ def robots_for_allocation(*, site: Site) -> list[Robot]:
     """Robots that may be offered a new task (protocol v1, "Presence"), by code.
 
     Online or unreachable, not reporting an error or a pause, not held by an operator (Pause
-    or Return to dock, until Resume) nor after a fault (until an operator resolves it), and
-    with a reported battery level at or above the site's threshold (a robot that never
-    reported has none).
+    or Return to dock, until Resume) nor after a fault (until an operator resolves it), not
+    sent to charge (until charged), and with a reported battery level at or above the site's
+    threshold (a robot that never reported has none).
     """
     robots = list(available_robots(site).order_by("code"))
     for robot in robots:
@@ -33,6 +33,7 @@ def available_robots(site: Site) -> QuerySet[Robot]:
         presence__in=REACHABLE,
         paused_by_operator=False,
         fault_at__isnull=True,
+        sent_to_charge=False,
         battery__isnull=False,
         battery__gte=site.battery_threshold,
     ).exclude(status__in=UNAVAILABLE_STATUSES)

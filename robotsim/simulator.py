@@ -112,6 +112,19 @@ class Behaviour:
     charge_rate: float = 1 / (2 * 3600)  # per second at the dock: full in 2 h
     wrong_pin: float = 0.2  # a recipient who knows the PIN mistypes it (once) this often
     pin_seconds: float = 8.0  # to type a PIN
+    # As the site file says (battery_per_metre, battery_per_ride), when given: then driving
+    # drains per metre instead of per second, and each elevator ride drains too.
+    drain_per_metre: float | None = None
+    drain_per_ride: float = 0.0
+
+    @classmethod
+    def for_site(cls, site: dict, **options) -> Behaviour:
+        """Draining as the site file says the server expects (its defaults when it says not)."""
+        return cls(
+            drain_per_metre=float(site.get("battery_per_metre", 0.00004)),
+            drain_per_ride=float(site.get("battery_per_ride", 0.001)),
+            **options,
+        )
 
 
 @dataclass
@@ -185,6 +198,7 @@ class SimRobot:
         self.waypoint = dock
         self.status = "charging"
         self.battery = self.behaviour.battery
+        self.lowest_battery = self.battery  # for the benchmarks
         self.paused = False
         self.riding = False
         self.stops: list[dict] = []  # the current plan's stops still to do, in order
@@ -386,6 +400,8 @@ class SimRobot:
         logger.info("%s: rides %s to %s", self.code, hop.resource, hop.to_floor)
         self.riding = True
         self._set(mode="riding")
+        self.battery = max(self.battery - self.behaviour.drain_per_ride, 0.0)
+        self.lowest_battery = min(self.lowest_battery, self.battery)
         yield Sleep(seconds)
         self.riding = False
         self.waypoint = hop.target
@@ -569,13 +585,16 @@ class SimRobot:
             return
         self._accounted = until
         b = self.behaviour
-        if self._mode == "moving":
+        if self._mode == "moving" and b.drain_per_metre is not None:
+            self.battery -= b.drain_per_metre * self.map.robot_speed * seconds
+        elif self._mode == "moving":
             self.battery -= b.drain_moving * seconds
         elif self._mode == "charging":
             self.battery = min(1.0, self.battery + b.charge_rate * seconds)
         elif self._mode == "idle":
             self.battery -= b.drain_idle * seconds
         self.battery = max(self.battery, 0.0)
+        self.lowest_battery = min(self.lowest_battery, self.battery)
 
     def _position(self, now: float) -> tuple[float, float, float]:
         motion = self._motion

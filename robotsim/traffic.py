@@ -10,6 +10,7 @@ supplies; one-to-one and one-to-many):
 |---|---|---|---|
 | samples | a ward | the laboratory's sample reception | 45 % (morning peak) |
 | urgent samples | a ward, urgent | the laboratory | 5 % |
+| STAT samples | a ward, STAT (due in 20 min by default) | the laboratory | 3 % |
 | medication | the pharmacy | a ward | 20 % |
 | medication round | the pharmacy | 2-3 wards (one-to-many) | 8 % (and at fixed times) |
 | sample kits | the laboratory's pickup counter | a ward | 10 % |
@@ -89,13 +90,15 @@ KINDS = {
     "round": (0.08, "Medication round"),
     "kits": (0.10, "Sample collection kits"),
     "supplies": (0.12, "Dressings and IV supplies"),
+    "stat": (0.03, "STAT blood gas samples"),
 }
+PRIORITIES = {"urgent": "urgent", "stat": "stat"}  # kind -> priority; every other is routine
 
 
 def request_body(kind: str, stations: Stations, rng: random.Random) -> dict:
     """One request of `kind` as the task API takes it."""
     wards = stations.wards
-    if kind in ("samples", "urgent"):
+    if kind in ("samples", "urgent", "stat"):
         pickups, dropoffs = [rng.choice(wards)], [stations.lab_drop]
     elif kind == "medication":
         pickups, dropoffs = [stations.pharmacy], [rng.choice(wards)]
@@ -115,7 +118,7 @@ def request_body(kind: str, stations: Stations, rng: random.Random) -> dict:
         "sender": stations.names[pickups[0]],
         "receiver": stations.names[dropoffs[0]] if len(dropoffs) == 1 else "Wards",
         "contents": KINDS[kind][1],
-        "priority": "urgent" if kind == "urgent" else "normal",
+        "priority": PRIORITIES.get(kind, "routine"),
         "pickups": pickups,
         "dropoffs": dropoffs,
     }
@@ -137,6 +140,7 @@ DAY_RATES = {
     "medication": dict.fromkeys(range(8, 20), 2),
     "kits": dict.fromkeys(range(8, 20), 1),
     "supplies": {**dict.fromkeys(range(8, 20), 1), 14: 2, 15: 2},
+    "stat": dict.fromkeys(range(8, 20), 0.5),
 }
 ROUND_TIMES = ((9, 0), (13, 0), (17, 0))  # medication rounds: two one-to-many tasks each
 

@@ -9,6 +9,12 @@ far. Across robots, a cheap lower bound on each robot's added travel skips robot
 Routes of more than EXACT_TASK_LIMIT tasks are planned by insertion and local search instead and
 are marked inexact.
 
+Deadlines: a task may carry a due time and a weight (its priority). A route is then chosen by
+its weighted lateness first, then its travel plus the extra weight of the hurried tasks' drop-off
+times, among its least-travel route and, for each hurried task (weighted above 1, or late in
+that route), its least-travel route doing that task first (precedence and capacity still hold).
+A route of unweighted tasks on time is its exact least-travel route, as before.
+
 Pure: standard library only, so it can be tested and benchmarked without Django.
 """
 
@@ -42,11 +48,14 @@ class Stop:
 
 @dataclass(frozen=True)
 class TaskStops:
-    """The stops of one task that remain to be done (done stops are left out)."""
+    """The stops of one task that remain to be done (done stops are left out); `due` is the
+    seconds from now by which its last drop-off must be done, `weight` its priority's."""
 
     code: str
     pickups: tuple[Stop, ...]
     dropoffs: tuple[Stop, ...]
+    due: float = math.inf
+    weight: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -56,6 +65,8 @@ class RobotRoute:
     load: int
     capacity: int
     tasks: tuple[TaskStops, ...]
+    dwell: float = 0.0  # seconds spent at each stop (loading, unloading)
+    pace: float = 1.0  # its travel times over travel_time's, for when tasks are done
 
 
 @dataclass(frozen=True)
@@ -77,9 +88,10 @@ def best_plan(
 ) -> Plan | None:
     """The cheapest order of the robot's remaining stops (and extra's); None if none is feasible.
 
-    Exact up to EXACT_TASK_LIMIT tasks, otherwise the result of insertion and local search.
+    Exact up to EXACT_TASK_LIMIT tasks, otherwise the result of insertion and local search;
+    with deadlines, the route the module docstring describes.
     """
-    return _plan(robot, robot.tasks + ((extra,) if extra else ()), _Travel(travel_time))
+    return _route(robot, robot.tasks + ((extra,) if extra else ()), _Travel(travel_time))
 
 
 def allocate(
@@ -116,50 +128,130 @@ def allocate_for_delivery_time(
     *,
     waiting_weight: float = 1.0,
 ) -> Allocation | None:
-    """Like allocate, but the robot is chosen by added travel plus the waiting it causes.
+    """Like allocate, but the robot is chosen by the lateness it causes first, then by added
+    travel plus the waiting it causes.
 
-    `allocate` (the paper's rule) gives a task to the robot whose route it lengthens least. A
-    robot already out on a long route is nearly always that robot, so it collects task after
-    task while the others stay at their docks, and deliveries wait (bench/fleet_day.py).
-    Here each robot's route with the task is still its least-travel route (exact up to
-    EXACT_TASK_LIMIT tasks), but the robot is the one minimising
+    `allocate` gives a task to the robot whose route it lengthens least. A robot already out on
+    a long route is nearly always that robot, so it collects task after task while the others
+    stay at their docks, and deliveries wait (bench/fleet_day.py). Here each robot's route with
+    the task is its best route (`best_plan`), and the robot is the one minimising first
 
-        added travel + waiting_weight * (the new task's travel time to its last drop-off
-                                         + the delay it adds to the held tasks' drop-offs)
+        the weighted lateness the task adds (its own, and how much later held tasks are late)
 
-    so a busy robot still takes a task on its way, and an idle one takes a task a busy robot
-    would only reach late. Every robot is solved (no cross-robot pruning): fine for the fleet
-    of one hospital. `added_cost` of the result is the added travel alone.
+    and, among robots adding the same (to the second), the least
+
+        added travel + waiting_weight * (the new task's weighted time to its last drop-off
+                                         + the weighted delay it adds to the held tasks)
+
+    so a busy robot still takes a task on its way, an idle one takes a task a busy robot would
+    only reach late, and a STAT task takes the robot that drops it off in time. Every robot is
+    solved (no cross-robot pruning): fine for the fleet of one hospital. `added_cost` of the
+    result is the added travel alone.
     """
     travel = _Travel(travel_time)
     best = None
     for robot in sorted(robots, key=lambda robot: robot.robot):
-        base = _plan(robot, robot.tasks, travel)
-        plan = base and _plan(robot, (*robot.tasks, task), travel)
+        base = _route(robot, robot.tasks, travel)
+        plan = base and _route(robot, (*robot.tasks, task), travel)
         if not plan or not math.isfinite(plan.cost):
             continue
-        waiting = _dropoff_delay(robot.start, base, plan, task.code, travel)
-        score = plan.cost - base.cost + waiting_weight * waiting
-        if best is None or score < best[0] - TOLERANCE:
-            best = (score, Allocation(robot.robot, plan, plan.cost - base.cost))
+        late, waiting = _delays(robot, base, plan, (*robot.tasks, task), task.code, travel)
+        key = (math.floor(late), plan.cost - base.cost + waiting_weight * waiting)
+        if (
+            best is None
+            or key[0] < best[0][0]
+            or (key[0] == best[0][0] and key[1] < best[0][1] - TOLERANCE)
+        ):
+            best = (key, Allocation(robot.robot, plan, plan.cost - base.cost))
     return best and best[1]
 
 
-def _dropoff_delay(start: str, base: Plan, plan: Plan, new: str, travel: _Travel) -> float:
-    """When the new task is done in `plan`, plus how much later each held task is done."""
-    before, after = _done_at(start, base, travel), _done_at(start, plan, travel)
-    delay = sum(max(0.0, after[code] - done) for code, done in before.items())
-    return after[new] + delay
+def _delays(robot, base: Plan, plan: Plan, tasks, new: str, travel: _Travel):
+    """(weighted lateness added, weighted waiting) of going from `base` to `plan`: the new
+    task's lateness and time to its drop-off, plus how much later each held task is (late)."""
+    before, after = _done_at(robot, base, travel), _done_at(robot, plan, travel)
+    late = waiting = 0.0
+    for task in tasks:
+        done = after.get(task.code, 0.0)
+        if task.code == new:
+            waiting += task.weight * done
+            late += task.weight * max(0.0, done - task.due)
+            continue
+        was = before.get(task.code, 0.0)
+        waiting += task.weight * max(0.0, done - was)
+        late += task.weight * (max(0.0, done - task.due) - max(0.0, was - task.due))
+    return late, waiting
 
 
-def _done_at(start: str, plan: Plan, travel: _Travel) -> dict[str, float]:
-    """Per task, the travel time from `start` to its last stop in the plan."""
-    done, clock, here = {}, 0.0, start
+def allocate_standby_first(
+    task: TaskStops, robots: Sequence[RobotRoute], travel_time: TravelTime
+) -> Allocation | None:
+    """The paper's rule (Sec. 3.1.2), in full: a standby robot (holding no task) takes the task;
+    of several, the one that reaches the task's first pick-up soonest. Only when no standby
+    robot can take it does it go to the robot whose route it lengthens least (`allocate`).
+
+    Ties go to the smallest robot code. `added_cost` is the added travel.
+    """
+    travel = _Travel(travel_time)
+    best = None
+    for robot in sorted((r for r in robots if not r.tasks), key=lambda robot: robot.robot):
+        plan = _plan(robot, (task,), travel)
+        if not plan or not math.isfinite(plan.cost):
+            continue
+        reach = travel[robot.start][plan.stops[0].place]
+        if best is None or reach < best[0] - TOLERANCE:
+            best = (reach, Allocation(robot.robot, plan, plan.cost))
+    return best[1] if best else allocate(task, robots, travel_time)
+
+
+def _done_at(robot: RobotRoute, plan: Plan, travel: _Travel) -> dict[str, float]:
+    """Per task, the seconds from now until its last stop in the plan is done (travel and
+    the robot's dwell at each stop)."""
+    done, clock, here = {}, 0.0, robot.start
     for stop in plan.stops:
-        clock += travel[here][stop.place]
+        clock += travel[here][stop.place] * robot.pace + robot.dwell
         done[stop.task] = clock
         here = stop.place
     return done
+
+
+def _route(robot: RobotRoute, tasks: tuple[TaskStops, ...], travel: _Travel) -> Plan | None:
+    """The robot's best route (module docstring): least travel unless a deadline or a
+    priority's weight says otherwise."""
+    base = _plan(robot, tasks, travel)
+    if base is None or len(tasks) > EXACT_TASK_LIMIT or len(tasks) < 2:
+        return base
+    done = _done_at(robot, base, travel)
+    hurried = [t for t in tasks if t.weight > 1.0 or done.get(t.code, 0.0) > t.due]
+    if not hurried:
+        return base
+    best, best_key = base, _route_key(robot, base, tasks, travel)
+    for first in sorted(hurried, key=lambda t: (-t.weight, t.due, t.code)):
+        plan = _plan_first(robot, first, [t for t in tasks if t is not first], travel)
+        if plan is None or not math.isfinite(plan.cost):
+            continue
+        key = _route_key(robot, plan, tasks, travel)
+        if key[0] < best_key[0] or (key[0] == best_key[0] and key[1] < best_key[1] - TOLERANCE):
+            best, best_key = plan, key
+    return best
+
+
+def _route_key(robot, plan: Plan, tasks, travel: _Travel) -> tuple[int, float]:
+    """(weighted lateness to the second, travel + the extra weight of each task's done time)."""
+    done = _done_at(robot, plan, travel)
+    late = sum(t.weight * max(0.0, done.get(t.code, 0.0) - t.due) for t in tasks)
+    hurry = sum((t.weight - 1.0) * done.get(t.code, 0.0) for t in tasks)
+    return math.floor(late), plan.cost + hurry
+
+
+def _plan_first(robot, first: TaskStops, others: list[TaskStops], travel: _Travel):
+    """The least-travel route doing every stop of `first` before any other stop."""
+    problem = _problem(robot, (first, *others), travel)
+    ahead = (1 << (len(first.pickups) + len(first.dropoffs))) - 1
+    for j in range(ahead.bit_length(), len(problem.stops)):
+        problem.needs[j] |= ahead
+    found = _held_karp(problem, math.inf, _least_arrivals(problem))
+    return found and _as_plan(problem, *found)
 
 
 def added_cost_lower_bound(task: TaskStops, robot: RobotRoute, travel_time: TravelTime) -> float:

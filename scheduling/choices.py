@@ -30,8 +30,26 @@ FINISHED_STATUSES = [TaskStatus.COMPLETED, TaskStatus.CANCELLED, TaskStatus.FAIL
 
 
 class Priority(models.TextChoices):
-    NORMAL = "normal", "Normal"
+    """How soon a delivery is needed; each has a due-by time (the site's default, or the
+    request's own) and a weight in the allocator's objective."""
+
+    ROUTINE = "routine", "Routine"
     URGENT = "urgent", "Urgent"
+    STAT = "stat", "STAT"
+
+
+# Old names still accepted on the API: "normal" was routine's name before deadlines.
+PRIORITY_ALIASES = {"normal": Priority.ROUTINE}
+# Due sweeps allocate in this order (lowest first).
+PRIORITY_RANK = {Priority.STAT: 0, Priority.URGENT: 1, Priority.ROUTINE: 2}
+# Lateness and delivery time of a task count this many times in the allocator's objective.
+PRIORITY_WEIGHT = {Priority.STAT: 8.0, Priority.URGENT: 3.0, Priority.ROUTINE: 1.0}
+# What protocol v1 robots are told (v1 knows "normal" and "urgent" only).
+PRIORITY_ON_THE_WIRE = {
+    Priority.ROUTINE: "normal",
+    Priority.URGENT: "urgent",
+    Priority.STAT: "urgent",
+}
 
 
 class StopAction(models.TextChoices):

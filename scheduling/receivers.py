@@ -3,12 +3,17 @@ hospital_delivery/extensions.py)."""
 
 from robots.choices import Presence
 from scheduling import services
+from scheduling.services.charging import robot_battery_check
+from scheduling.services.etas import heartbeat_progress
 
 
 def on_heartbeat_applied(*, applied) -> None:
     services.heartbeat_tasks_apply(applied=applied)
     # After its events: what a faulty robot reports loaded in the same heartbeat stays with it.
     services.heartbeat_fault_check(applied=applied)
+    heartbeat_progress(applied=applied)  # learn the robot's pace, recompute its ETAs
+    if applied.state_applied:
+        robot_battery_check(robot=applied.robot, now=applied.now)
 
 
 def on_presence_changed(*, robot, old, new, at) -> None:

@@ -1,12 +1,14 @@
 """Reads: robots' remaining routes for the allocator, tasks for the API, and what the pages
 show (the schedule table, robots' current tasks and plans)."""
 
+import math
 from collections import defaultdict
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta
 
 from django.db.models import Case, IntegerField, Prefetch, Q, QuerySet, Value, When
+from django.utils import timezone
 
 from boards.choices import EventType
 from boards.models import RobotEvent
@@ -18,11 +20,13 @@ from scheduling.allocator import RobotRoute, Stop, TaskStops
 from scheduling.choices import (
     FINISHED_STATUSES,
     HELD_STATUSES,
+    PRIORITY_WEIGHT,
     ROUTE_STATUSES,
     Cause,
     StopAction,
     TaskStatus,
 )
+from scheduling.deadlines import lateness_note
 from scheduling.models import (
     CustodyEntry,
     RecurringRequest,
@@ -47,12 +51,14 @@ class HeldRoute:
         return not self.route.tasks
 
 
-def robot_routes(*, robots: Iterable[Robot]) -> dict[int, HeldRoute]:
+def robot_routes(*, robots: Iterable[Robot], now: datetime | None = None) -> dict[int, HeldRoute]:
     """Each robot's remaining route, in one query however many robots and tasks.
 
     Stops already done are left out; a task picked up has only its drop-offs left; the load
-    is what the done pick-ups and drop-offs of the robot's tasks left on board.
+    is what the done pick-ups and drop-offs of the robot's tasks left on board. Each task's
+    due time counts from `now`.
     """
+    now = now or timezone.now()
     robots = {robot.pk: robot for robot in robots}
     stops = defaultdict(list)
     for stop in (
@@ -61,34 +67,51 @@ def robot_routes(*, robots: Iterable[Robot]) -> dict[int, HeldRoute]:
         .order_by("task_id", "index")
     ):
         stops[stop.task.robot_id].append(stop)
-    return {pk: _held_route(robot, stops[pk]) for pk, robot in robots.items()}
+    return {pk: _held_route(robot, stops[pk], now) for pk, robot in robots.items()}
 
 
-def robot_route(*, robot: Robot) -> HeldRoute:
-    return robot_routes(robots=[robot])[robot.pk]
+def robot_route(*, robot: Robot, now: datetime | None = None) -> HeldRoute:
+    return robot_routes(robots=[robot], now=now)[robot.pk]
 
 
-def task_stops(task: Task, stops: Iterable[TaskStop], *, site: Site) -> TaskStops:
-    """The allocator's view of a task: its remaining stops, pick-ups then drop-offs."""
+def task_stops(
+    task: Task, stops: Iterable[TaskStop], *, site: Site, now: datetime | None = None
+) -> TaskStops:
+    """The allocator's view of a task: its remaining stops, pick-ups then drop-offs, its due
+    time in seconds from `now` and its priority's weight."""
     remaining = [_stop(site, task, stop) for stop in stops if stop.is_remaining]
+    due = (task.due_at - (now or timezone.now())).total_seconds() if task.due_at else math.inf
     return TaskStops(
         code=task.code,
         pickups=tuple(stop for stop in remaining if stop.action == StopAction.PICKUP),
         dropoffs=tuple(stop for stop in remaining if stop.action == StopAction.DROPOFF),
+        due=due,
+        weight=PRIORITY_WEIGHT.get(task.priority, 1.0),
     )
 
 
-def _held_route(robot: Robot, stops: list[TaskStop]) -> HeldRoute:
+def robot_pace(robot: Robot) -> tuple[float, float]:
+    """(its travel over the map's estimate, seconds at a stop) for the robot's ETAs: learned
+    from its events (scheduling.services.etas), else 1 and the site's stop_dwell_seconds."""
+    pace = 1.0 if robot.pace_travel is None else robot.pace_travel
+    dwell = robot.site.stop_dwell_seconds if robot.pace_dwell is None else robot.pace_dwell
+    return pace, dwell
+
+
+def _held_route(robot: Robot, stops: list[TaskStop], now: datetime) -> HeldRoute:
     by_task = defaultdict(list)
     for stop in stops:
         by_task[stop.task].append(stop)
-    held = [task_stops(task, its, site=robot.site) for task, its in by_task.items()]
+    held = [task_stops(task, its, site=robot.site, now=now) for task, its in by_task.items()]
+    pace, dwell = robot_pace(robot)
     route = RobotRoute(
         robot=robot.code,
         start=robot_position(robot),
         load=sum(stop.load_change for stop in stops if stop.done_at),
         capacity=robot.capacity,
         tasks=tuple(task for task in held if task.pickups or task.dropoffs),
+        dwell=dwell,
+        pace=pace,
     )
     signature = tuple((s.pk, s.task.status, s.is_remaining) for s in stops)
     tasks = {task.code: task for task in by_task}
@@ -184,6 +207,13 @@ class ScheduleRow:
     @property
     def finished(self) -> bool:
         return self.task.status in FINISHED_STATUSES
+
+    @property
+    def lateness(self) -> str:
+        """ "earliest drop-off 14:32, 7 min after it is due" while not delivered, else ""."""
+        if self.task.delivered_at is not None or self.finished:
+            return ""
+        return lateness_note(eta=self.task.eta, due_at=self.task.due_at)
 
 
 def task_disruption(task: Task, given_back: list[TaskTransition]) -> tuple[str, bool]:

@@ -7,7 +7,8 @@ from rest_framework import serializers
 
 from core.fields import StrictCharField, StrictDateTimeField, StrictIntegerField
 from robots.models import Site
-from scheduling.choices import Priority, TaskStatus
+from scheduling.choices import PRIORITY_ALIASES, Priority, TaskStatus
+from scheduling.deadlines import lateness_note, priority_of
 from scheduling.models import RecurringRequest, Task, TaskStop, TaskTransition
 from scheduling.recurrence import MINUTES_PER_DAY, parse_clock
 from scheduling.selectors import stations_by_code
@@ -79,9 +80,17 @@ class TaskRequestSerializer(serializers.Serializer):
     sender = StrictCharField(max_length=200)
     receiver = StrictCharField(max_length=200)
     contents = StrictCharField(max_length=200)
-    priority = serializers.ChoiceField(choices=Priority.values, default=Priority.NORMAL)
+    priority = serializers.ChoiceField(
+        choices=[*Priority.values, *PRIORITY_ALIASES],
+        default=Priority.ROUTINE,
+        help_text="routine, urgent or stat (`normal`, the old name of routine, is accepted)",
+    )
     requested_time = StrictDateTimeField(
         required=False, help_text="when a robot should come; default now"
+    )
+    due_by = StrictDateTimeField(
+        required=False,
+        help_text="when it must be dropped off; default the site's for its priority",
     )
     pickups = serializers.ListField(
         child=StrictCharField(), min_length=1, max_length=MAX_STOPS, help_text="station codes"
@@ -107,8 +116,13 @@ class TaskRequestSerializer(serializers.Serializer):
             raise serializers.ValidationError("is in the past")
         return moment
 
+    def validate_priority(self, name):
+        return priority_of(name)
+
     def validate(self, attrs):
         attrs["site"] = attrs.get("site") or _only_site()
+        if "due_by" in attrs:
+            _due_by_check(attrs)
         stations = stations_by_code(site=attrs["site"], codes=attrs["pickups"] + attrs["dropoffs"])
         errors = {
             **_station_errors("pickups", attrs["pickups"], stations, ()),
@@ -123,6 +137,14 @@ class TaskRequestSerializer(serializers.Serializer):
         attrs["pickups"] = [stations[code] for code in attrs["pickups"]]
         attrs["dropoffs"] = [stations[code] for code in attrs["dropoffs"]]
         return attrs
+
+
+def _due_by_check(attrs: dict) -> None:
+    if "repeat" in attrs:
+        why = "not with repeat: each occurrence is due by the site's default for its priority"
+        raise serializers.ValidationError({"due_by": [why]})
+    if attrs["due_by"] <= attrs.get("requested_time", timezone.now()):
+        raise serializers.ValidationError({"due_by": ["must be after the requested time"]})
 
 
 def _only_site() -> Site:
@@ -173,6 +195,10 @@ class TaskSerializer(serializers.ModelSerializer):
     robot = serializers.CharField(source="robot.code", allow_null=True)
     stops = TaskStopSerializer(many=True)
     recurring = RecurringSerializer(allow_null=True)
+    lateness = serializers.SerializerMethodField(
+        help_text='"earliest drop-off 14:32, 7 min after it is due" when the ETA is after '
+        "due_at; empty when on time or not yet estimated"
+    )
 
     class Meta:
         model = Task
@@ -189,7 +215,10 @@ class TaskSerializer(serializers.ModelSerializer):
             "robot",
             "return_trip",
             "secure",
+            "due_at",
+            "pickup_eta",
             "eta",
+            "lateness",
             "waiting_reason",
             "stops",
             "recurring",
@@ -204,6 +233,11 @@ class TaskSerializer(serializers.ModelSerializer):
             "failed_at",
         ]
         read_only_fields = fields
+
+    def get_lateness(self, task: Task) -> str:
+        if task.delivered_at is not None:
+            return ""
+        return lateness_note(eta=task.eta, due_at=task.due_at)
 
 
 class TaskTransitionSerializer(serializers.ModelSerializer):

@@ -10,7 +10,7 @@ from scheduling import services
 
 @shared_task(autoretry_for=(OperationalError,), retry_backoff=True, max_retries=5)
 def allocate_task(task_id: int) -> None:
-    services.task_allocate(task_id=task_id)
+    services.task_allocate_with_its_site(task_id=task_id)
 
 
 @shared_task

@@ -15,6 +15,7 @@ from django.views.decorators.http import require_POST
 from core.access import can_cancel, member_required
 from robots.membership import site_required
 from robots.models import Site
+from scheduling.deadlines import lateness_note
 from scheduling.models import Task
 from scheduling.selectors import (
     given_back_entries,
@@ -46,6 +47,7 @@ def deliveries(request):
         request_data = TaskRequestSerializer(data=form.api_data())
         if request_data.is_valid():
             task = task_request(requester=request.user, **request_data.validated_data)
+            late = lateness_note(eta=task.eta, due_at=task.due_at)
             messages.success(request, f"Delivery {task.code} requested: {task.contents}.")
             if task.secure:  # shown this once: only its hash is kept
                 messages.warning(
@@ -53,6 +55,8 @@ def deliveries(request):
                     f"PIN for {task.code}: {task.pin_plain}. Give it to the recipient: it "
                     "opens the robot's compartment and is not shown again.",
                 )
+            if late:
+                messages.warning(request, f"{task.code} will be late: {late}.")
             return redirect(_deliveries_url(task.site))
         form.add_api_errors(request_data.errors)
     status = 400 if form.is_bound else 200

@@ -104,7 +104,7 @@ class DeliveryRequestForm(forms.Form):
 
     def __init__(self, data=None, *, sites, site, stations: list[tuple[str, str]], **kwargs):
         now = timezone.localtime().replace(second=0, microsecond=0)
-        initial = {"site": site.code, "requested_time": now, "priority": Priority.NORMAL}
+        initial = {"site": site.code, "requested_time": now, "priority": Priority.ROUTINE}
         super().__init__(data, initial=initial, **kwargs)
         self.fields["site"].choices = [(s.code, str(s)) for s in sites]
         if len(sites) < 2:
@@ -159,7 +159,7 @@ class DeliveryRequestForm(forms.Form):
             "sender": self.cleaned_data["sender"],
             "receiver": self.cleaned_data["receiver"],
             "contents": self.cleaned_data["contents"],
-            "priority": self.cleaned_data["priority"] or Priority.NORMAL,
+            "priority": self.cleaned_data["priority"] or Priority.ROUTINE,
             "secure": bool(self.cleaned_data.get("secure")),
         }
         for name, (api_name, _label) in STOPS.items():

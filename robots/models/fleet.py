@@ -72,6 +72,20 @@ class Robot(models.Model):
         help_text="reported a fault: no new tasks until an operator resolves it",
     )
 
+    # Set when the scheduler sends it to charge (scheduling.services.charging), cleared once its
+    # battery reaches the site's battery_charged: no new tasks meanwhile.
+    sent_to_charge = models.BooleanField(
+        default=False, help_text="sent to its dock to charge: no new tasks until charged"
+    )
+
+    # Learned from the robot's own events (scheduling.services.etas), for its ETAs.
+    pace_travel = models.FloatField(
+        null=True, blank=True, help_text="its travel times over the map's estimates, as observed"
+    )
+    pace_dwell = models.FloatField(
+        null=True, blank=True, help_text="seconds it spends at a stop, as observed"
+    )
+
     objects = RobotQuerySet.as_manager()
 
     # Written by each fresh heartbeat, and by each heartbeat or sweep, respectively.

@@ -44,6 +44,30 @@ class Site(models.Model):
     battery_threshold = models.FloatField(
         default=0.2, help_text="robots below this battery level get no new tasks"
     )
+    stat_due_minutes = models.FloatField(
+        default=20.0, validators=POSITIVE, help_text="a STAT delivery is due this long after"
+    )
+    urgent_due_minutes = models.FloatField(
+        default=45.0, validators=POSITIVE, help_text="an urgent delivery is due this long after"
+    )
+    routine_due_minutes = models.FloatField(
+        default=120.0, validators=POSITIVE, help_text="a routine delivery is due this long after"
+    )
+    battery_per_metre = models.FloatField(
+        default=0.00004, help_text="battery a robot uses per metre driven (1 = a full battery)"
+    )
+    battery_per_ride = models.FloatField(
+        default=0.001, help_text="battery a robot uses per elevator ride"
+    )
+    battery_reserve = models.FloatField(
+        default=0.1, help_text="battery a robot must still have back at its dock after a route"
+    )
+    battery_charged = models.FloatField(
+        default=0.8, help_text="a robot sent to charge takes tasks again from this level"
+    )
+    stop_dwell_seconds = models.FloatField(
+        default=30.0, help_text="seconds a robot spends at a stop, until it has been observed"
+    )
     map_version = models.PositiveIntegerField(
         default=1, editable=False, help_text="bumped by every load; routing caches key on it"
     )

@@ -21,7 +21,7 @@ class RecurringRequest(models.Model):
     sender = models.CharField(max_length=200)
     receiver = models.CharField(max_length=200)
     contents = models.CharField(max_length=200)
-    priority = models.CharField(max_length=8, choices=Priority, default=Priority.NORMAL)
+    priority = models.CharField(max_length=8, choices=Priority, default=Priority.ROUTINE)
     pickups = models.JSONField(help_text="station codes")
     dropoffs = models.JSONField(help_text="station codes")
     repeat = models.JSONField()

@@ -42,7 +42,7 @@ class Task(models.Model):
     sender = models.CharField(max_length=200)
     receiver = models.CharField(max_length=200)
     contents = models.CharField(max_length=200)
-    priority = models.CharField(max_length=8, choices=Priority, default=Priority.NORMAL)
+    priority = models.CharField(max_length=8, choices=Priority, default=Priority.ROUTINE)
     requested_time = models.DateTimeField(help_text="when a robot should come for it")
     status = models.CharField(max_length=16, choices=TaskStatus, default=TaskStatus.SCHEDULED)
     robot = models.ForeignKey(
@@ -89,6 +89,10 @@ class Task(models.Model):
     cancelled_at = models.DateTimeField(null=True, blank=True)
     failed_at = models.DateTimeField(null=True, blank=True)
     eta = models.DateTimeField(null=True, blank=True, help_text="estimated last drop-off")
+    pickup_eta = models.DateTimeField(null=True, blank=True, help_text="estimated first pick-up")
+    due_at = models.DateTimeField(
+        null=True, blank=True, help_text="when it must be dropped off (by its priority)"
+    )
 
     objects = TaskQuerySet.as_manager()
 

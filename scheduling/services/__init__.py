@@ -23,7 +23,12 @@ allocation on commit, and the due sweep finds it anyway if that message is lost.
 robot are changed only under that robot's lock; tasks without one only by conditional updates.
 """
 
-from scheduling.services.allocation import due_sweep, task_allocate
+from scheduling.services.allocation import (
+    due_sweep,
+    site_allocate_due,
+    task_allocate,
+    task_allocate_with_its_site,
+)
 from scheduling.services.cancellation import TaskNotCancellable, task_cancel
 from scheduling.services.events import heartbeat_tasks_apply
 from scheduling.services.faults import heartbeat_fault_check, robot_fault, robot_fault_resolve
@@ -47,7 +52,9 @@ __all__ = [
     "robot_fault_resolve",
     "robot_offline",
     "robot_tasks_give_back",
+    "site_allocate_due",
     "task_allocate",
+    "task_allocate_with_its_site",
     "task_cancel",
     "task_request",
     "unload_timeout_sweep",

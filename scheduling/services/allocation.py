@@ -5,13 +5,15 @@ workers never allocate on one site at once. Then it locks the one chosen robot. 
 else that changes a robot's route holds that robot's lock, so the chosen robot's route is
 read again under its lock, and the plan is built on that.
 
-settings.ALLOCATION_POLICY picks the rule: "multi" (the least added travel, the source paper's),
-"delivery_time" (added travel plus the waiting it causes), or "single" (only robots holding no
-task are candidates, as hospital fleets ran before the paper); see bench/fleet_day.py.
+settings.ALLOCATION_POLICY picks the rule: "delivery_time" (added travel plus the waiting it
+causes), "paper" (the source paper's: a standby robot first, the one reaching the pick-up
+soonest, else the least added travel), "least_travel" (the least added travel, standby or not),
+or "single" (only robots holding no task are candidates, as hospital fleets ran before the
+paper); see bench/fleet_day.py.
 """
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import datetime, timedelta
 
 from django.conf import settings
@@ -28,12 +30,15 @@ from scheduling.allocator import (
     TaskStops,
     allocate,
     allocate_for_delivery_time,
+    allocate_standby_first,
     best_plan,
 )
-from scheduling.choices import Cause, Priority, TaskStatus
+from scheduling.choices import PRIORITY_RANK, Cause, Priority, TaskStatus
 from scheduling.metrics import ALLOCATION_SECONDS
 from scheduling.models import AllocationLock, Task, TaskStop
 from scheduling.selectors import HeldRoute, robot_route, robot_routes, task_stops
+from scheduling.services.charging import robot_can_finish
+from scheduling.services.etas import deadline_alert, task_deadline_check
 from scheduling.services.history import allocation_enqueue, task_record
 from scheduling.services.plans import plan_post
 
@@ -44,6 +49,7 @@ NO_ROBOT = "no robot available (online, not paused or in error, battery above th
 NO_SECURE_ROBOT = "secure: no available robot has a lockable compartment"
 NO_ROUTE = "no available robot can fit it in its route (capacity or unreachable stops)"
 NO_EMPTY_ROBOT = "no available robot is empty (single-task allocation)"
+NO_BATTERY = "no available robot has the battery to do it and get back to its dock"
 
 
 def task_allocate(*, task_id: int, now: datetime | None = None) -> bool:
@@ -71,7 +77,7 @@ def task_allocate_created(*, task: Task, stops: list[TaskStop], now: datetime) -
 
     The nurse's request then commits with its robot chosen and the plan posted: no worker
     round trip on the way from the request to the robot (bench/latency.py). It never waits for
-    the site's lock, so a burst of requests is still allocated one at a time by the worker.
+    the site's lock: the rest of a burst of requests is allocated by the worker, in batches.
     """
     try:
         with transaction.atomic():  # a savepoint: on failure the task stays created and due
@@ -84,34 +90,149 @@ def task_allocate_created(*, task: Task, stops: list[TaskStop], now: datetime) -
     allocation_enqueue(task.pk)
 
 
+def site_allocate_due(*, site_id: int, now: datetime | None = None) -> int:
+    """Allocate every due task of the site (DUE_BATCH at most) in one transaction under its
+    lock: STAT first, then urgent, then routine, each by due time; returns how many were
+    assigned.
+
+    A burst of requests is allocated in one batch: the robots' routes are read once, each task
+    is added to the route of the robot it goes to, each chosen robot is locked once and posted
+    one plan with all its new tasks at the end. The Celery worker runs this for a task the
+    request could not allocate itself; later messages of the same burst find nothing left.
+    """
+    now = now or timezone.now()
+    with transaction.atomic():
+        site = _allocation_lock(site_id)
+        due = Task.objects.filter(site_id=site_id, status=TaskStatus.DUE, robot__isnull=True)
+        due = due.annotate(rank=_PRIORITY_RANK).order_by("rank", "due_at", "requested_time", "pk")
+        tasks = list(due.prefetch_related("stops")[:DUE_BATCH])
+        if not tasks:
+            return 0
+        batch = _Batch(site, now)
+        assigned = sum(batch.add(task) for task in tasks)
+        batch.post()
+        return assigned
+
+
+class _Batch:
+    """Tasks allocated together: each robot's route grows in memory; plans are posted last."""
+
+    def __init__(self, site: Site, now: datetime):
+        self.site, self.now = site, now
+        self.routes = robot_routes(robots=robots_for_allocation(site=site), now=now)
+        self.locked: dict[int, Robot] = {}
+        self.start: dict[int, str] = {}
+        self.stops: dict[int, tuple[Stop, ...]] = {}  # robots given tasks: their new route
+        self.assigned: list[tuple[Task, Robot]] = []
+
+    def add(self, task: Task) -> bool:
+        new = task_stops(task, task.stops.all(), site=self.site, now=self.now)
+        routes, short_of_battery = dict(self.routes), False
+        if task.secure:  # it travels locked: only robots that can lock it away
+            routes = {pk: held for pk, held in routes.items() if held.robot.lockable_compartments}
+            if not routes:
+                _wait(task, NO_SECURE_ROBOT)
+                return False
+        while True:
+            candidates = _candidates(routes)
+            choice = _choose(new, task, candidates, router_for(self.site).travel_time)
+            if choice is None:
+                _wait(task, NO_BATTERY if short_of_battery else _why_not(routes, candidates))
+                return False
+            read = routes[choice.robot_id]
+            if not robot_can_finish(robot=read.robot, start=read.route.start, stops=choice.stops):
+                short_of_battery = True
+                del routes[choice.robot_id]
+                continue
+            if self._lock(choice.robot_id):
+                break
+            if choice.robot_id in self.routes:  # its route changed: choose again with it
+                routes[choice.robot_id] = self.routes[choice.robot_id]
+            else:  # no longer available: choose among the others
+                del routes[choice.robot_id]
+        return self._claim(task, new, choice)
+
+    def _lock(self, robot_id: int) -> bool:
+        """Lock a robot the first time it is chosen, and take its route as it is now."""
+        if robot_id in self.locked:
+            return True
+        robot = robot_lock_if_available(robot_id, self.site)
+        if robot is None:
+            del self.routes[robot_id]
+            return False
+        held = robot_route(robot=robot, now=self.now)
+        if held.signature != self.routes[robot_id].signature:
+            self.routes[robot_id] = held  # changed since read: the next choice plans on this
+            return False
+        self.locked[robot_id] = robot
+        self.start[robot_id] = held.route.start
+        return True
+
+    def _claim(self, task: Task, new: TaskStops, choice) -> bool:
+        robot = self.locked[choice.robot_id]
+        ack_due_at = self.now + timedelta(seconds=self.site.ack_timeout)
+        fields = {"robot": robot, "assigned_at": self.now, "ack_due_at": ack_due_at}
+        claimed = Task.objects.filter(pk=task.pk, status=TaskStatus.DUE, robot__isnull=True)
+        if not claimed.update(status=TaskStatus.ASSIGNED, waiting_reason="", **fields):
+            return False  # cancelled meanwhile
+        for name, value in {**fields, "waiting_reason": ""}.items():
+            setattr(task, name, value)
+        task.status = TaskStatus.ASSIGNED
+        held = self.routes[choice.robot_id]
+        route = replace(held.route, tasks=(*held.route.tasks, new))
+        self.routes[choice.robot_id] = replace(
+            held, route=route, tasks={**held.tasks, task.code: task}
+        )
+        self.stops[choice.robot_id] = choice.stops
+        self.assigned.append((task, robot))
+        return True
+
+    def post(self) -> None:
+        """One plan per robot given tasks, then each task's history and deadline check."""
+        for robot_id, stops in self.stops.items():
+            robot, held = self.locked[robot_id], self.routes[robot_id]
+            plan_post(
+                robot=robot, start=self.start[robot_id], stops=stops, tasks=held.tasks, now=self.now
+            )
+        for task, robot in self.assigned:
+            task_record(task, old=TaskStatus.DUE, at=self.now, cause=Cause.ALLOCATION, robot=robot)
+            task_deadline_check(task=task, robot=robot)
+
+
 def due_sweep(*, now: datetime | None = None) -> int:
-    """Tasks whose time came become due; every due task is offered to the robots, urgent
-    ones first. Finds what a lost Celery message left behind. Returns how many were assigned."""
+    """Tasks whose time came become due; every due task is offered to the robots, a batch per
+    site (site_allocate_due): STAT first, then urgent, then routine, each by due time. Finds
+    what a lost Celery message left behind. Returns how many were assigned."""
     now = now or timezone.now()
     for task_id in Task.objects.filter(
         status=TaskStatus.SCHEDULED, requested_time__lte=now
     ).values_list("pk", flat=True):
         task_make_due(task_id=task_id, now=now)
-    due = (
-        Task.objects.filter(status=TaskStatus.DUE, robot__isnull=True)
-        .annotate(rank=_URGENT_FIRST)
-        .order_by("rank", "requested_time", "pk")
-        .values_list("pk", flat=True)[:DUE_BATCH]
-    )
-    return sum(_allocate_logging_errors(task_id, now) for task_id in list(due))
+    due = Task.objects.filter(status=TaskStatus.DUE, robot__isnull=True)
+    sites = sorted(set(due.values_list("site_id", flat=True)))
+    return sum(_allocate_logging_errors(site_id, now) for site_id in sites)
 
 
-def _allocate_logging_errors(task_id: int, now: datetime) -> bool:
-    """One task's failure (a deadlock victim, say) must not stop the sweep for the others."""
+def _allocate_logging_errors(site_id: int, now: datetime) -> int:
+    """One site's failure (a deadlock victim, say) must not stop the sweep for the others."""
     try:
-        return task_allocate(task_id=task_id, now=now)
+        return site_allocate_due(site_id=site_id, now=now)
     except Exception:
-        logger.exception("allocating task %s failed; the next sweep tries again", task_id)
-        return False
+        logger.exception("allocating on site %s failed; the next sweep tries again", site_id)
+        return 0
 
 
-_URGENT_FIRST = Case(
-    When(priority=Priority.URGENT, then=Value(0)), default=Value(1), output_field=IntegerField()
+def task_allocate_with_its_site(*, task_id: int, now: datetime | None = None) -> int:
+    """The worker's allocation of a task the request left due: a batch of every due task of
+    its site (site_allocate_due); returns how many were assigned."""
+    site_id = Task.objects.filter(pk=task_id).values_list("site_id", flat=True).first()
+    return 0 if site_id is None else site_allocate_due(site_id=site_id, now=now)
+
+
+_PRIORITY_RANK = Case(
+    *(When(priority=name, then=Value(rank)) for name, rank in PRIORITY_RANK.items()),
+    default=Value(len(PRIORITY_RANK)),
+    output_field=IntegerField(),
 )
 
 
@@ -144,26 +265,32 @@ def _allocation_lock(site_id: int, *, wait: bool = True) -> Site | None:
 
 @ALLOCATION_SECONDS.time()
 def _allocate(task: Task, site: Site, now: datetime, stops: list[TaskStop] | None = None) -> bool:
-    new = task_stops(task, task.stops.all() if stops is None else stops, site=site)
-    routes = robot_routes(robots=robots_for_allocation(site=site))
+    new = task_stops(task, task.stops.all() if stops is None else stops, site=site, now=now)
+    routes = robot_routes(robots=robots_for_allocation(site=site), now=now)
     if task.secure:  # it travels locked: only robots that can lock it away
         routes = {pk: held for pk, held in routes.items() if held.robot.lockable_compartments}
         if not routes:
             _wait(task, NO_SECURE_ROBOT)
             return False
+    short_of_battery = False
     while True:
         candidates = _candidates(routes)
         choice = _choose(new, task, candidates, router_for(site).travel_time)
         if choice is None:
-            _wait(task, _why_not(routes, candidates))
+            _wait(task, NO_BATTERY if short_of_battery else _why_not(routes, candidates))
             return False
+        read = routes[choice.robot_id]
+        if not robot_can_finish(robot=read.robot, start=read.route.start, stops=choice.stops):
+            short_of_battery = True  # it would not be back at its dock with the reserve left
+            del routes[choice.robot_id]
+            continue
         robot = robot_lock_if_available(choice.robot_id, site)
         if robot is not None:
             break
         # Paused, gone offline or in error since it was read: choose among the others.
         del routes[choice.robot_id]
     read = routes[choice.robot_id]
-    held = robot_route(robot=robot)
+    held = robot_route(robot=robot, now=now)
     stops = choice.stops
     if held.signature != read.signature:  # its route changed since it was read: plan on the new
         plan = best_plan(held.route, router_for(site).travel_time, extra=new)
@@ -175,8 +302,8 @@ def _allocate(task: Task, site: Site, now: datetime, stops: list[TaskStop] | Non
 
 
 def _candidates(routes: dict[int, HeldRoute]) -> dict[int, HeldRoute]:
-    """Robots that may take the task: all available ones ("multi": online multi-task
-    allocation), or only those holding no task ("single": single-task allocation)."""
+    """Robots that may take the task: all available ones (online multi-task allocation), or
+    only those holding no task ("single": single-task allocation)."""
     if settings.ALLOCATION_POLICY == "single":
         return {pk: held for pk, held in routes.items() if held.is_empty}
     return routes
@@ -186,6 +313,15 @@ def _why_not(routes: dict[int, HeldRoute], candidates: dict[int, HeldRoute]) -> 
     if not routes:
         return NO_ROBOT
     return NO_ROUTE if candidates else NO_EMPTY_ROBOT
+
+
+# settings.ALLOCATION_POLICY -> the allocator's rule for choosing among the candidates.
+RULES = {
+    "delivery_time": allocate_for_delivery_time,
+    "paper": allocate_standby_first,
+    "least_travel": allocate,
+    "single": allocate,  # every candidate is empty: the least added travel is the nearest
+}
 
 
 @dataclass(frozen=True)
@@ -200,7 +336,7 @@ def _choose(
     """The best robot for the task; the robot that let it time out last only if no other can."""
     by_code = {held.route.robot: pk for pk, held in routes.items()}
     others = [h.route for pk, h in routes.items() if pk != task.timed_out_robot_id]
-    rule = allocate_for_delivery_time if settings.ALLOCATION_POLICY == "delivery_time" else allocate
+    rule = RULES[settings.ALLOCATION_POLICY]
     allocation = rule(new, others, travel_time) if others else None
     if allocation is None and task.timed_out_robot_id in routes:
         allocation = rule(new, [routes[task.timed_out_robot_id].route], travel_time)
@@ -229,11 +365,19 @@ def _assign(task: Task, robot: Robot, held: HeldRoute, stops, now: datetime) -> 
         setattr(task, name, value)
     task.status = TaskStatus.ASSIGNED
     task_record(task, old=TaskStatus.DUE, at=now, cause=Cause.ALLOCATION, robot=robot)
+    task_deadline_check(task=task, robot=robot)
     return True
 
 
 def _wait(task: Task, reason: str) -> None:
-    """Record why the task stays due (logged once per change of reason)."""
-    if task.waiting_reason != reason:
-        logger.info("%s stays due: %s", task.code, reason)
-        Task.objects.filter(pk=task.pk).update(waiting_reason=reason)
+    """Record why the task stays due (logged once per change of reason); a STAT or urgent task
+    that no robot takes is an operator's concern at once."""
+    if task.waiting_reason == reason:
+        return
+    logger.info("%s stays due: %s", task.code, reason)
+    Task.objects.filter(pk=task.pk).update(waiting_reason=reason)
+    task.waiting_reason = reason
+    if task.priority != Priority.ROUTINE:
+        due = f", due {timezone.localtime(task.due_at):%H:%M}" if task.due_at else ""
+        message = f"{task.get_priority_display()} {task.code} has no robot{due}: {reason}"
+        deadline_alert(task, message)

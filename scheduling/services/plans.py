@@ -5,9 +5,8 @@ heartbeat or presence transaction), so plan versions and RobotPlan rows never ra
 """
 
 import logging
-import math
 from collections.abc import Sequence
-from datetime import datetime, timedelta
+from datetime import datetime
 
 from boards import protocol
 from boards.choices import MessageType
@@ -18,8 +17,10 @@ from robots.models import Robot
 from robots.router import Router
 from robots.selectors import robot_dock, robot_position
 from scheduling.allocator import Stop, best_plan
+from scheduling.choices import PRIORITY_ON_THE_WIRE
 from scheduling.models import RobotPlan, Task
-from scheduling.selectors import HeldRoute, robot_route
+from scheduling.selectors import HeldRoute, robot_pace, robot_route
+from scheduling.services.etas import etas_store, stop_times
 
 logger = logging.getLogger(__name__)
 
@@ -29,25 +30,30 @@ PLAN_KEY = "plan"
 def plan_post(
     *, robot: Robot, start: str, stops: Sequence[Stop], tasks: dict[str, Task], now: datetime
 ) -> RobotPlan:
-    """Post `stops` as the robot's plan, superseding any unacked plan; store the tasks' ETAs."""
+    """Post `stops` as the robot's plan, superseding any unacked plan; store the tasks' ETAs
+    (by the robot's learned pace and dwell; the lease queues join them as it makes progress,
+    scheduling.services.etas)."""
     router = router_for(robot.site)
-    wire, arrivals = _wire_stops(router, start, stops)
+    wire = _wire_stops(router, start, stops)
     on_route = {code: _task_wire(tasks[code]) for code in dict.fromkeys(s.task for s in stops)}
     plan = _post(robot, wire, on_route, now)  # first: the robot is woken, and travels meanwhile
-    _etas_store(tasks, arrivals, now)
+    pace, dwell = robot_pace(robot)
+    etas_store(tasks, stop_times(router, start, stops, pace=pace, dwell=dwell), now)
     return plan
 
 
 def plan_dock_post(*, robot: Robot, now: datetime) -> RobotPlan:
-    """The plan of a robot with nothing left to do: back to its dock."""
+    """The plan of a robot with nothing left to do: back to its dock (to charge, if it was sent
+    to charge: scheduling.services.charging)."""
     dock = robot_dock(robot)
     via = router_for(robot.site).leg(robot_position(robot), dock).via
-    return _post(robot, [protocol.plan_dock_stop(waypoint=dock, via=via)], {}, now)
+    stop = protocol.plan_dock_stop(waypoint=dock, via=via, charge=robot.sent_to_charge)
+    return _post(robot, [stop], {}, now)
 
 
 def robot_replan(*, robot: Robot, now: datetime, held: HeldRoute | None = None) -> RobotPlan:
     """Post the robot the best plan of what it holds now, or the dock plan if nothing."""
-    held = held or robot_route(robot=robot)
+    held = held or robot_route(robot=robot, now=now)
     if held.is_empty:
         return plan_dock_post(robot=robot, now=now)
     plan = best_plan(held.route, router_for(robot.site).travel_time)
@@ -61,7 +67,7 @@ def robot_replan(*, robot: Robot, now: datetime, held: HeldRoute | None = None) 
 
 def robot_dock_if_idle(*, robot: Robot, now: datetime) -> RobotPlan | None:
     """Send a robot that has nothing left to do to its dock, unless that is its plan already."""
-    if not robot_route(robot=robot).is_empty:
+    if not robot_route(robot=robot, now=now).is_empty:
         return None
     current = RobotPlan.objects.filter(robot=robot).first()
     if current is not None and current.is_dock:
@@ -102,9 +108,9 @@ def _may_be_pending(current: RobotPlan | None) -> bool:
     return current is None or current.message is None or current.message.is_pending
 
 
-def _wire_stops(router: Router, start: str, stops: Sequence[Stop]):
-    """The stops as the protocol sends them, and the seconds from now each is reached."""
-    wire, arrivals, previous, elapsed = [], [], start, 0.0
+def _wire_stops(router: Router, start: str, stops: Sequence[Stop]) -> list[dict]:
+    """The stops as the protocol sends them."""
+    wire, previous = [], start
     for stop in stops:
         leg = router.leg(previous, stop.place)
         wire.append(
@@ -116,10 +122,8 @@ def _wire_stops(router: Router, start: str, stops: Sequence[Stop]):
                 via=leg.via,
             )
         )
-        elapsed += leg.seconds
-        arrivals.append((stop.task, elapsed))
         previous = stop.place
-    return wire, arrivals
+    return wire
 
 
 def _task_wire(task: Task) -> dict:
@@ -127,17 +131,6 @@ def _task_wire(task: Task) -> dict:
         contents=task.contents,
         sender=task.sender,
         receiver=task.receiver,
-        priority=task.priority,
+        priority=PRIORITY_ON_THE_WIRE.get(task.priority, "normal"),
         pin=task.pin.wire() if task.pin else None,
     )
-
-
-def _etas_store(tasks: dict[str, Task], arrivals, now: datetime) -> None:
-    """Each task's ETA: when the plan reaches its last stop."""
-    last = dict(arrivals)  # the last arrival of each task wins
-    changed = []
-    for code, seconds in last.items():
-        task = tasks[code]
-        task.eta = now + timedelta(seconds=seconds) if math.isfinite(seconds) else None
-        changed.append(task)
-    Task.objects.bulk_update(changed, ["eta"])

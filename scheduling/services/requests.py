@@ -10,6 +10,7 @@ from django.utils import timezone
 
 from robots.models import Site, Waypoint
 from scheduling.choices import Cause, Priority, StopAction, TaskStatus
+from scheduling.deadlines import due_at_default
 from scheduling.models import RecurringRequest, Task, TaskStop
 from scheduling.pins import pin_hash, pin_new
 from scheduling.recurrence import next_occurrence, occurrences
@@ -39,8 +40,9 @@ def task_request(
     contents: str,
     pickups: list[Waypoint],
     dropoffs: list[Waypoint],
-    priority: str = Priority.NORMAL,
+    priority: str = Priority.ROUTINE,
     requested_time: datetime | None = None,
+    due_by: datetime | None = None,
     repeat: dict | None = None,
     secure: bool = False,
     now: datetime | None = None,
@@ -48,8 +50,9 @@ def task_request(
     """Create a delivery task (due at once unless requested for later), or with `repeat` a
     periodic request and its first instance, which is returned.
 
-    A `secure` one (never periodic: each has its own PIN) gets a new PIN, returned once as
-    task.pin_plain for the requester to hand to the recipient; only its hash is stored.
+    It must be dropped off by `due_by`, else by the site's default for its priority. A `secure`
+    one (never periodic: each has its own PIN) gets a new PIN, returned once as task.pin_plain for
+    the requester to hand to the recipient; only its hash is stored.
     """
     now = now or timezone.now()
     what = {"sender": sender, "receiver": receiver, "contents": contents, "priority": priority}
@@ -62,6 +65,7 @@ def task_request(
             pickups=pickups,
             dropoffs=dropoffs,
             requested_time=requested_time or now,
+            due_by=due_by,
             now=now,
             **(_secure_fields(pin) if secure else {}),
         )
@@ -107,15 +111,19 @@ def task_create(
     requested_time: datetime,
     now: datetime,
     note: str = "",
+    due_by: datetime | None = None,
     **extra,
 ) -> Task:
     """One task with its stops; allocated (settings.ALLOCATE_ON_REQUEST) or enqueued for
     allocation at once if its time has come."""
     due = requested_time <= now
+    priority = what.get("priority", Priority.ROUTINE)
     task = Task.objects.create(
         site=site,
         requester=requester,
         requested_time=requested_time,
+        due_at=due_by
+        or due_at_default(site=site, priority=priority, requested_time=requested_time),
         status=TaskStatus.DUE if due else TaskStatus.SCHEDULED,
         created_at=now,
         **what,

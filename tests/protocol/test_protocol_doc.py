@@ -538,7 +538,8 @@ def dock_stops_checked(where, plan, eulji_map) -> None:
     """A dock stop has no task and no stop, and is at a dock; a task stop has both."""
     for n, stop in enumerate(plan["stops"]):
         if stop["action"] == DOCK:
-            assert {"action", "waypoint"} <= set(stop) <= {"action", "waypoint", "via"}, where
+            assert {"action", "waypoint"} <= set(stop) <= {"action", "waypoint", "via", "charge"}
+            assert stop.get("charge", True) is True, f"{where}: stops[{n}].charge"
             assert eulji_map.waypoints[stop["waypoint"]].kind == DOCK, f"{where}: stops[{n}]"
         else:
             assert {"task", "stop"} <= set(stop), f"{where}: stops[{n}]"
@@ -592,17 +593,17 @@ def fields_by_kind(messages: list[dict]) -> dict[str, set[str]]:
 def server_messages(client, eulji, tokens, staff) -> list[dict]:
     """Board messages of every type, as the server really sends them: R3 is given a delivery
     across floors, does it and is sent to its dock; takes the elevator, for which R4 queues;
-    and is paused by an operator."""
+    and is paused by an operator; R4, low on battery, is sent to charge."""
     received: list[dict] = []
     seqs: dict[str, int] = {}
 
-    def beat(code, waypoint, status="idle", **fields):
+    def beat(code, waypoint, status="idle", battery=0.9, **fields):
         seqs[code] = seqs.get(code, 0) + 1
         state = {
             "status": status,
             "floor": waypoint.split("-")[0],
             "waypoint": waypoint,
-            "battery": 0.9,
+            "battery": battery,
             "load": 0,
             "plan_version": 0,
         }
@@ -642,6 +643,7 @@ def server_messages(client, eulji, tokens, staff) -> list[dict]:
     beat("R4", "15F-ELEV-A-WAIT", requests=[wait])
     robot_action(robot=Robot.objects.get(code="R3"), action="pause", by=staff)
     beat("R3", "2F-ELEV-A-WAIT", status="waiting_resource")
+    beat("R4", "15F-ELEV-A-WAIT", battery=0.1)  # low, nothing on board: sent to charge
     return received
 
 

@@ -176,6 +176,15 @@ RULES = {
         put("battery_threshold", value=1.5),
         "battery_threshold: must be <= 1, not 1.5",
     ),
+    "zero due time": (put("stat_due_minutes", value=0), "stat_due_minutes: must be > 0, not 0"),
+    "due time not a number": (
+        put("routine_due_minutes", value="2h"),
+        "routine_due_minutes: must be a number, not a string '2h'",
+    ),
+    "negative dwell": (
+        put("stop_dwell_seconds", value=-1),
+        "stop_dwell_seconds: must be >= 0, not -1",
+    ),
     "no floors": (put("floors", value=[]), "floors: a site needs at least one floor"),
     "duplicate waypoint code across floors": (
         add("floors", 1, "waypoints", item={"code": "1F-HALL", "x": 0, "y": 0}),
@@ -438,6 +447,8 @@ def test_it_loads_the_demo_site(db):
     assert (site.code, site.name) == ("eulji", "Eulji University Hospital (Daejeon)")
     assert (site.robot_speed, site.ack_timeout, site.map_version) == (0.8, 30.0, 1)
     assert site.loaded_at is not None
+    due = (site.stat_due_minutes, site.urgent_due_minutes, site.routine_due_minutes)
+    assert (due, site.stop_dwell_seconds) == ((20, 45, 120), 30)
     assert site.floors.count() == 15
     assert set(site.floors.values_list("level", flat=True)) == set(range(1, 16))
     assert site.waypoints.count() == 98

@@ -6,6 +6,7 @@ on commit (conftest).
 """
 
 import random
+from dataclasses import replace
 
 import pytest
 
@@ -13,7 +14,7 @@ from bench.inprocess import SERVER_URL, InProcessTaskApi, InProcessTransport
 from boards.models import RobotEvent
 from resources.leases import lease_sweep
 from resources.models import Lease
-from robots.models import Alert
+from robots.models import Alert, Robot
 from robots.router import site_map_from_file
 from robotsim.client import RobotClient
 from robotsim.simulator import Behaviour, ManualClock, RobotLoop, SimRobot
@@ -214,3 +215,23 @@ def test_a_recipient_without_the_pin_gets_it_locked_and_operators_alerted(world,
     assert (locked["task"], locked["compartment"], locked["failed_attempts"]) == (code, "A", 3)
     assert Task.objects.get().status == "picked_up"  # its items stay locked on board
     assert not any(e.get("type") == "unloaded" for e in robot.log)
+
+
+def test_a_robot_draining_as_its_site_says_is_sent_to_charge_and_back_to_work(world, api, site):
+    # The robot's site file says 0.1 % per metre and 1 % per ride; the delivery (180 m, three
+    # rides) takes it below the server's threshold (0.2), so the server sends it to charge.
+    drains = {"battery_per_metre": 0.001, "battery_per_ride": 0.01}
+    behaviour = Behaviour.for_site(drains, battery=0.35, staff_delay=(5.0, 10.0))
+    robot = world.robot("R1", "1F-DOCK-1")
+    robot.behaviour = replace(behaviour, charge_rate=1 / 600)  # full in 10 simulated minutes
+    robot.battery = robot.lowest_battery = 0.35
+    world.run_until(lambda: robot.client.seq > 1)
+    code = order(api, ["3F-WARD"], ["2F-LAB"])
+
+    world.run_until(lambda: Robot.objects.get(code="R1").sent_to_charge)
+
+    assert Task.objects.with_code(code).get().status in ("delivered", "completed")
+    assert robot.lowest_battery < 0.2
+    world.run_until(lambda: not Robot.objects.get(code="R1").sent_to_charge, limit=3000)
+    assert robot.battery >= 0.8
+    assert robot.idle_at_dock

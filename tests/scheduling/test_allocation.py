@@ -176,14 +176,15 @@ def test_allocating_again_changes_nothing(r1, site):
     assert task.history.filter(cause="allocation").count() == 1
 
 
-def test_the_due_sweep_allocates_urgent_tasks_first(r1, site):
-    normal = request(site)
+def test_the_due_sweep_allocates_stat_then_urgent_then_routine_tasks(r1, site):
+    routine = request(site)
     urgent = request(site, priority="urgent")
+    stat = request(site, priority="stat")
 
-    assert due_sweep() == 2
+    assert due_sweep() == 3
 
     allocations = TaskTransition.objects.filter(cause="allocation").order_by("id")
-    assert list(allocations.values_list("task_id", flat=True)) == [urgent.pk, normal.pk]
+    assert list(allocations.values_list("task_id", flat=True)) == [stat.pk, urgent.pk, routine.pk]
 
 
 def test_one_allocation_needs_the_same_queries_however_many_robots(site):

@@ -1,10 +1,10 @@
-"""settings.ALLOCATION_POLICY: online multi-task allocation by added travel or by delivery time,
-or single-task (bench/fleet_day.py)."""
+"""settings.ALLOCATION_POLICY: the paper's rule (a standby robot first), online multi-task
+allocation by added travel or by delivery time, or single-task (bench/fleet_day.py)."""
 
 from scheduling.models import Task
 from scheduling.services import task_allocate
 from scheduling.services.allocation import NO_EMPTY_ROBOT
-from tests.scheduling.conftest import request
+from tests.scheduling.conftest import request, robot_ready
 
 
 def allocated(task: Task):
@@ -13,11 +13,38 @@ def allocated(task: Task):
     return task.robot
 
 
-def test_multi_adds_a_task_to_a_busy_robot_when_that_is_cheapest(r1, r2, site, settings):
-    settings.ALLOCATION_POLICY = "multi"
+def test_least_travel_adds_a_task_to_a_busy_robot_when_that_is_cheapest(r1, r2, site, settings):
+    settings.ALLOCATION_POLICY = "least_travel"
     assert allocated(request(site)) == r1
 
     assert allocated(request(site, receiver="Dr Lee")) == r1
+
+
+def test_paper_gives_a_task_to_a_standby_robot_before_a_busy_one(r1, r2, site, settings):
+    settings.ALLOCATION_POLICY = "paper"
+    assert allocated(request(site)) == r1
+
+    # The same stops would add no travel to R1's route; R2 holds no task, so it is R2's.
+    assert allocated(request(site, receiver="Dr Lee")) == r2
+
+
+def test_paper_gives_a_task_to_the_standby_robot_nearest_its_pick_up(r1, r2, site, settings):
+    settings.ALLOCATION_POLICY = "paper"
+    robot_ready(r2, at="1F-PHARM")
+
+    assert allocated(request(site)) == r2  # R1 waits at its dock, 20 m further
+
+
+def test_paper_adds_a_task_where_it_adds_least_travel_when_no_robot_stands_by(
+    r1, r2, site, settings
+):
+    settings.ALLOCATION_POLICY = "paper"
+    assert allocated(request(site, dropoffs=("3F-WARD",))) == r1
+    assert allocated(request(site, pickups=("2F-LAB",), dropoffs=("1F-PHARM",))) == r2
+
+    # Both robots are busy now: the task has R2's stops, so it lengthens R2's route least.
+    same = request(site, receiver="Dr Lee", pickups=("2F-LAB",), dropoffs=("1F-PHARM",))
+    assert allocated(same) == r2
 
 
 def test_delivery_time_adds_a_task_to_a_busy_robot_when_it_delays_nobody(r1, r2, site, settings):

@@ -19,6 +19,7 @@ from scheduling.allocator import (
     added_cost_lower_bound,
     allocate,
     allocate_for_delivery_time,
+    allocate_standby_first,
     best_plan,
     cheapest_insertion,
     enumerate_best_plan,
@@ -303,6 +304,69 @@ def test_by_delivery_time_it_counts_the_delay_to_the_tasks_a_robot_holds():
 
     assert allocate(task, [busy, idle], _on_a_line).robot == "R-01"
     assert allocate_for_delivery_time(task, [busy, idle], _on_a_line).robot == "R-02"
+
+
+def test_the_papers_rule_gives_a_task_to_a_standby_robot_even_when_a_busy_one_adds_nothing():
+    busy = _carrying_to("0", "1000")
+    near = RobotRoute("R-02", start="5000", load=0, capacity=4, tasks=())
+    nearer = RobotRoute("R-03", start="900", load=0, capacity=4, tasks=())
+    task = one_to_one("T-0002", "600", "700")
+
+    chosen = allocate_standby_first(task, [busy, near, nearer], _on_a_line)
+
+    assert (chosen.robot, chosen.added_cost) == ("R-03", 400.0)  # the soonest at the pick-up
+
+
+def test_the_papers_rule_adds_least_travel_when_no_robot_stands_by():
+    busy = _carrying_to("0", "1000")
+    other = _carrying_to("5000", "6000", code="R-02")
+    task = one_to_one("T-0002", "600", "700")
+
+    assert allocate_standby_first(task, [busy, other], _on_a_line).robot == "R-01"
+
+
+def test_a_weighted_task_goes_ahead_of_held_stops_when_its_drop_off_gains_more_than_travel():
+    # On board: a routine item for 10. New: a STAT task from 0 to -100 (weight 8). Least travel
+    # drops at 10 first (120 s in all, the STAT drop-off at 120 s); STAT first costs 90 s more
+    # travel (210 s) and drops it off at 100 s: 210 + 7 x 100 < 120 + 7 x 120.
+    held = _carrying_to("0", "10")
+    stat = replace(one_to_one("T-0002", "0", "-100"), weight=8.0)
+
+    plan = best_plan(held, _on_a_line, extra=stat)
+
+    assert [stop.task for stop in plan.stops] == ["T-0002", "T-0002", "T-0001"]
+    assert plan.cost == 210.0
+
+
+def test_a_routine_task_keeps_the_least_travel_route():
+    held = _carrying_to("0", "10")
+    routine = one_to_one("T-0002", "0", "-100")
+
+    plan = best_plan(held, _on_a_line, extra=routine)
+
+    assert plan.stops[-1].task == "T-0002"  # the held drop-off first: 120 s, not 210 s
+    assert plan.cost == 120.0
+
+
+def test_a_deadline_puts_a_routine_task_first_when_it_would_be_late_otherwise():
+    held = _carrying_to("0", "10")
+    due = replace(one_to_one("T-0002", "0", "-100"), due=60.0)  # late by 40 s rather than 60 s
+
+    plan = best_plan(held, _on_a_line, extra=due)
+
+    assert [stop.task for stop in plan.stops] == ["T-0002", "T-0002", "T-0001"]
+
+
+def test_by_delivery_time_lateness_comes_first():
+    # R-01 passes the task on its way and drops it off at 600 s, adding no travel; idle R-02
+    # would add 400 s of travel and drop it off at 400 s. Due at 500 s, it is R-02's.
+    busy = _carrying_to("0", "1000")
+    idle = RobotRoute("R-02", start="200", load=0, capacity=4, tasks=())
+    task = one_to_one("T-0002", "500", "600")
+
+    assert allocate_for_delivery_time(task, [busy, idle], _on_a_line).robot == "R-01"
+    due = replace(task, due=500.0)
+    assert allocate_for_delivery_time(due, [busy, idle], _on_a_line).robot == "R-02"
 
 
 def test_it_generates_metric_travel_times():

@@ -7,6 +7,7 @@ import pytest
 from django.test import Client
 from django.utils import timezone
 
+from robots.models import Alert
 from robots.sitefile import site_load
 from scheduling.models import RecurringRequest, Task, TaskTransition
 from tests import factories
@@ -57,8 +58,10 @@ def test_it_creates_an_on_demand_task(api, site, staff, django_capture_on_commit
     assert [(h["old"], h["new"], h["cause"], h["user"]) for h in body["history"]] == [
         ("", "due", "request", staff.username)
     ]
-    # The live push; no robot is free, so it stays due for the due sweep (no Celery message).
-    assert len(callbacks) == 1
+    # The live pushes: the task, and the operators' alert (an urgent task no robot can take);
+    # it stays due for the due sweep (no Celery message).
+    assert len(callbacks) == 2
+    assert Alert.objects.open().get(task=task.code).kind == "deadline_at_risk"
 
 
 def test_it_answers_a_task_already_given_to_a_free_robot(api, r1):

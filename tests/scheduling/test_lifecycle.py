@@ -174,7 +174,9 @@ def test_a_robot_whose_last_task_fails_goes_to_its_dock(r1, site, enqueued):
     assert len(pending_plans(r1)) == 1
 
 
-def test_a_heartbeat_with_a_task_event_needs_six_more_queries(r1, site, django_assert_num_queries):
+def test_a_heartbeat_with_a_task_event_needs_seventeen_more_queries(
+    r1, site, django_assert_num_queries
+):
     task = request(site)
     task_allocate(task_id=task.pk)
     beater = Beater(r1)
@@ -182,9 +184,12 @@ def test_a_heartbeat_with_a_task_event_needs_six_more_queries(r1, site, django_a
 
     # The heartbeat's own 7 (tests/boards/test_heartbeat_queries.py, with one event) + read the
     # task and its stops, mark the stop done, move the task, record it, find the site's webhook
-    # subscriptions (none here; webhooks/services.py). A heartbeat without task events or plan
-    # acks needs none more.
-    with django_assert_num_queries(13):
+    # subscriptions (none here; webhooks/services.py) (6) + the robot's progress
+    # (scheduling.services.etas, 11): look for its arrival there (its dwell), read its route and
+    # its plan, the elevator and the door on its next leg (1) and their lease queues and typical
+    # holds (3 each), store the ETAs. A heartbeat without task events or plan acks needs none
+    # more.
+    with django_assert_num_queries(24):
         beater.beat(events=[event("loaded", task.code, 0)])
     with django_assert_num_queries(7):
         beater.beat(events=[event("arrived")])

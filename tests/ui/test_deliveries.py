@@ -30,7 +30,7 @@ def order(client, **fields):
         "contents": "Blood samples",
         "pickup": ["Ward 3"],
         "dropoff": ["Laboratory"],
-        "priority": "normal",
+        "priority": "routine",
         "repeat": "",
     }
     data.update(fields)

@@ -129,7 +129,7 @@ class Command(BaseCommand):
             robots=self._robots(file, options["robots"]),
             speedup=options["speedup"],
             network=network,
-            behaviour=Behaviour(staff_delay=options["staff_delay"]),
+            behaviour=Behaviour.for_site(site, staff_delay=options["staff_delay"]),
             seed=seed,
             traffic_rate=options["traffic"],
             traffic_token=file.get("traffic_token"),

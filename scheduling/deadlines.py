@@ -1,0 +1,38 @@
+"""When a delivery is due, and how late its estimate says it will be. Pure reads."""
+
+from datetime import datetime, timedelta
+
+from django.utils import timezone
+
+from robots.models import Site
+from scheduling.choices import PRIORITY_ALIASES, Priority
+
+
+def priority_of(name: str) -> str:
+    """The priority a name stands for, old names (`normal`) included."""
+    return PRIORITY_ALIASES.get(name, name)
+
+
+def due_at_default(*, site: Site, priority: str, requested_time: datetime) -> datetime:
+    """The site's due-by time for a request of this priority made for `requested_time`."""
+    minutes = {
+        Priority.STAT: site.stat_due_minutes,
+        Priority.URGENT: site.urgent_due_minutes,
+    }.get(priority, site.routine_due_minutes)
+    return requested_time + timedelta(minutes=minutes)
+
+
+def late_by(*, eta: datetime | None, due_at: datetime | None) -> timedelta | None:
+    """How long after its due-by time the estimate drops it off; None if on time or unknown."""
+    if eta is None or due_at is None or eta <= due_at:
+        return None
+    return eta - due_at
+
+
+def lateness_note(*, eta: datetime | None, due_at: datetime | None) -> str:
+    """ "earliest drop-off 14:32, 7 min after it is due", or "" if on time (site local time)."""
+    late = late_by(eta=eta, due_at=due_at)
+    if late is None:
+        return ""
+    minutes = max(1, round(late.total_seconds() / 60))
+    return f"earliest drop-off {timezone.localtime(eta):%H:%M}, {minutes} min after it is due"

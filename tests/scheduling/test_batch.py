@@ -1,0 +1,30 @@
+"""A burst of due tasks is allocated in one batch under the site's lock (real PostgreSQL)."""
+
+from scheduling.models import Task, TaskTransition
+from scheduling.services import site_allocate_due, task_allocate_with_its_site
+from tests.scheduling.conftest import pending_plans, request
+
+
+def test_it_allocates_a_burst_in_one_batch_with_one_plan_per_robot(r1, r2, site):
+    tasks = [request(site, receiver=f"Nurse {n}") for n in range(5)]
+    stat = request(site, priority="stat", dropoffs=("3F-WARD",))
+
+    assert site_allocate_due(site_id=site.pk) == 6
+
+    assert set(Task.objects.values_list("status", flat=True)) == {"assigned"}
+    plans = {robot.code: pending_plans(robot) for robot in (r1, r2)}
+    assert all(len(posted) == 1 for posted in plans.values())  # one plan each, not one per task
+    planned = [stop["task"] for posted in plans.values() for stop in posted[0].body["stops"]]
+    assert sorted(set(planned)) == sorted(task.code for task in [*tasks, stat])
+    first = TaskTransition.objects.filter(cause="allocation").order_by("id").first()
+    assert first.task_id == stat.pk  # STAT first
+
+
+def test_the_workers_message_allocates_its_task_with_the_rest_of_its_site(r1, site):
+    first, second = request(site), request(site, receiver="Dr Lee")
+
+    assert task_allocate_with_its_site(task_id=second.pk) == 2
+    assert task_allocate_with_its_site(task_id=first.pk) == 0  # nothing left: a no-op
+
+    assert {task.robot_id for task in Task.objects.all()} == {r1.pk}
+    assert len(pending_plans(r1)) == 1
