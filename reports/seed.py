@@ -24,7 +24,7 @@ from scheduling.models import Task, TaskStop, TaskTransition
 BATCH = 5000
 # Relative request rate by hour of day (local time): peaks at 9-11 and 14-16, little at night.
 HOURLY = [1, 1, 1, 1, 1, 2, 4, 8, 12, 14, 13, 10, 8, 10, 12, 12, 10, 8, 6, 4, 3, 2, 1, 1]
-PRIORITIES = [("normal", 0.8), ("urgent", 0.2)]
+PRIORITIES = [("routine", 0.8), ("urgent", 0.2)]
 # (activity, minutes low, high, weight) of each stretch of a robot's day
 ACTIVITIES = [
     ("moving", 2, 8, 30),

@@ -83,7 +83,7 @@ def test_turnaround_by_priority_is_what_python_computes_from_the_rows(period):
         assert row["dropoff_p50_min"] == round(percentile(dropoffs, 0.5) / 60, 1)
         assert row["dropoff_p90_min"] == round(percentile(dropoffs, 0.9) / 60, 1)
         assert row["on_time_pct"] == round(100 * len(on_time) / len(counted), 1)
-    assert rows["urgent"]["dropoff_p50_min"] < rows["normal"]["dropoff_p50_min"]
+    assert rows["urgent"]["dropoff_p50_min"] < rows["routine"]["dropoff_p50_min"]
 
 
 def test_turnaround_by_ward_groups_by_drop_off_station(period):
