@@ -54,15 +54,21 @@ def sweep_record(task_name: str, at: float | None = None) -> None:
         logger.warning("could not record that %s ran", task_name)
 
 
+def sweeps_last_runs() -> dict[str, float | None]:
+    """Each sweep's last run (Unix time, or None if never), by task name; raises RedisError."""
+    names = sorted(_sweeps())
+    runs = _redis().mget([_key(name) for name in names])
+    return {
+        name: None if raw is None else float(raw) for name, raw in zip(names, runs, strict=True)
+    }
+
+
 def sweeps_status(now: float | None = None) -> dict[str, dict]:
     """Each sweep's last run (ISO time or None) and whether it is on time; raises RedisError."""
     now = now if now is not None else time.time()
     sweeps = _sweeps()
-    names = sorted(sweeps)
-    runs = _redis().mget([_key(name) for name in names])
     status = {}
-    for name, raw in zip(names, runs, strict=True):
-        last = float(raw) if raw is not None else None
+    for name, last in sweeps_last_runs().items():
         allowed = max(SWEEP_OVERDUE_INTERVALS * sweeps[name], SWEEP_OVERDUE_MIN_SECONDS)
         status[name] = {
             "last_run": datetime.fromtimestamp(last, UTC).isoformat() if last else None,

@@ -8,7 +8,7 @@ reach up, it calls a hook, and the project package, which sits above all of them
 answers.
 """
 
-from celery.signals import task_postrun, task_success
+from celery.signals import task_success
 from django.contrib.auth.signals import user_logged_out
 from django.db.backends.signals import connection_created
 
@@ -17,7 +17,6 @@ from boards.hooks import heartbeat_applied
 from core import watchdog
 from core.changes import changed
 from hospital_delivery import privatefiles
-from reports import metrics
 from resources import receivers as resources
 from robots.hooks import presence_changed, token_issued
 from scheduling import receivers as scheduling
@@ -40,9 +39,8 @@ def connect() -> None:
     changed.connect(publish.on_change, webhooks.on_change)
     # Logging out closes that session's live pages (Django's own signal).
     user_logged_out.connect(publish.on_user_logged_out, dispatch_uid="ui-live-logout")
-    # Each sweep that finishes records when (the sweeps' watchdog; Celery's own signal).
+    # Each sweep that finishes records when (the sweeps' watchdog, which /healthz, every page and
+    # the metrics read; Celery's own signal).
     task_success.connect(watchdog.sweep_ran, weak=False, dispatch_uid="sweeps-watchdog")
     # A new SQLite connection makes the database file readable by its owner only.
     connection_created.connect(privatefiles.sqlite_private, dispatch_uid="sqlite-private")
-    # Each Celery beat sweep's last success, for the metrics (Celery's own signal).
-    task_postrun.connect(metrics.on_task_postrun, weak=False, dispatch_uid="reports-sweep-runs")

@@ -11,7 +11,6 @@ answers.
 import os
 from datetime import datetime
 
-from django.conf import settings
 from prometheus_client import REGISTRY, CollectorRegistry, generate_latest
 from prometheus_client.metrics_core import GaugeMetricFamily
 from prometheus_client.multiprocess import MultiProcessCollector
@@ -143,14 +142,3 @@ class FleetCollector(Collector):
 
 def _gauge(name: str, documentation: str, *labels: str) -> GaugeMetricFamily:
     return GaugeMetricFamily(name, documentation, labels=["site", *labels])
-
-
-def on_task_postrun(*, task=None, state=None, **_) -> None:
-    """Celery's task_postrun (connected in hospital_delivery/extensions.py): note each sweep's
-    successful run in Redis, for hd_sweep_last_success_timestamp_seconds."""
-    if task is not None and state == "SUCCESS" and task.name in beat_tasks():
-        monitoring.sweep_ran(task.name)
-
-
-def beat_tasks() -> set[str]:
-    return {entry["task"] for entry in settings.CELERY_BEAT_SCHEDULE.values()}

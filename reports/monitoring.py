@@ -7,7 +7,6 @@ pending board messages, open tasks), a few milliseconds at a scrape every 15 s.
 
 import functools
 import logging
-import time
 from dataclasses import dataclass
 from datetime import datetime
 
@@ -17,6 +16,7 @@ from django.conf import settings
 from django.db.models import Count, Min
 
 from boards.models import BoardMessage
+from core.watchdog import sweeps_last_runs
 from reports.due import requested_before_due
 from resources.choices import LeaseState
 from resources.models import Lease
@@ -135,10 +135,6 @@ def celery_queue() -> str:
     return current_app.conf.task_default_queue
 
 
-def sweeps_key() -> str:
-    return f"hd:sweeps:{celery_queue()}"
-
-
 @functools.cache
 def _redis() -> redis.Redis:
     # redis-py's pool notices a fork and opens new connections in the child.
@@ -152,25 +148,15 @@ class BrokerState:
 
 
 def broker_state() -> BrokerState | None:
-    """Celery's queue length and the sweeps' last runs, or None if Redis does not answer."""
+    """Celery's queue length and the sweeps' last runs (as the sweeps' watchdog records them,
+    core/watchdog.py), or None if Redis does not answer."""
     try:
-        client = _redis()
-        pipe = client.pipeline(transaction=False)
-        pipe.llen(celery_queue())
-        pipe.hgetall(sweeps_key())
-        length, runs = pipe.execute()
+        length = _redis().llen(celery_queue())
+        runs = sweeps_last_runs()
     except redis.RedisError:
         logger.warning("Redis did not answer the metrics scrape", exc_info=True)
         return None
-    return BrokerState(length, {name.decode(): float(at) for name, at in runs.items()})
-
-
-def sweep_ran(task_name: str) -> None:
-    """Record that a sweep task has just succeeded (Celery's task_postrun, in the worker)."""
-    try:
-        _redis().hset(sweeps_key(), task_name, repr(time.time()))
-    except redis.RedisError:
-        logger.warning("could not record the run of %s", task_name, exc_info=True)
+    return BrokerState(length, {name: at for name, at in runs.items() if at is not None})
 
 
 def _site(row: dict) -> dict:
