@@ -63,7 +63,8 @@ class Load:
     latencies: list[float] = field(default_factory=list)  # of answers in the window, seconds
     errors: dict[str, int] = field(default_factory=dict)
     loader_cpu: float = 0.0  # share of one core
-    flips: int = 0  # presence changes recorded meanwhile (PresenceChange rows)
+    flips: int = 0  # robots flipped unreachable while measured (PresenceChange rows)
+    told: list[float] = field(default_factory=list)  # heartbeat_interval of answers, seconds
 
     @property
     def achieved(self) -> float:
@@ -82,6 +83,12 @@ def main(argv: list[str] | None = None) -> int:
         help="a PostgreSQL server to create the benchmark's database on, or sqlite:///",
     )
     parser.add_argument("--web-workers", type=int, help="gunicorn sync workers")
+    parser.add_argument(
+        "--capacity",
+        type=int,
+        default=int(os.environ.get("HEARTBEAT_CAPACITY", 300)),
+        help="the server's HEARTBEAT_CAPACITY (heartbeats/s; 0: robots always told 1 s)",
+    )
     args = parser.parse_args(argv)
     settings = QUICK if args.quick else FULL
     postgres = not args.database.startswith("sqlite")
@@ -89,9 +96,15 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("SECRET_KEY", "bench-only")  # for the servers and manage.py too
     with temporary_database(args.database) as url:
         tokens = _robots(url, max(settings.counts))
-        stack = Stack(database_url=url, web_workers=workers, beat=True, conn_max_age=60)
+        stack = Stack(
+            database_url=url,
+            web_workers=workers,
+            beat=True,
+            conn_max_age=60,
+            env={"HEARTBEAT_CAPACITY": str(args.capacity)},
+        )
         with stack:
-            _print_header(stack, postgres, settings, argv)
+            _print_header(stack, postgres, settings, argv, args.capacity)
             _load(stack, tokens[: settings.counts[0]], "heartbeat", settings)  # warm the workers
             loads = []
             for count in settings.counts:
@@ -124,17 +137,18 @@ def _robots(database_url: str, count: int) -> list[tuple[str, str]]:
     return tokens
 
 
-def _print_header(stack: Stack, postgres: bool, settings: Settings, argv) -> None:
+def _print_header(stack: Stack, postgres: bool, settings: Settings, argv, capacity: int) -> None:
     now = datetime.datetime.now().astimezone().isoformat(timespec="seconds")
     command = shlex.join(["python", "bench/heartbeat.py", *(argv if argv else sys.argv[1:])])
     print(f"heartbeat benchmark  {now}")
     print(f"command: {command}")
     print(f"Python {platform.python_version()}, {os.cpu_count()} CPUs, {platform.platform()}")
     print(f"server: {stack.description}; {'PostgreSQL' if postgres else 'SQLite (WAL)'}")
+    print(f"HEARTBEAT_CAPACITY={capacity} (heartbeats/s the server is set to take)")
     print(
-        f"load: robots at 1 Hz each, phases spread over the second, {settings.warmup:g} s "
-        f"warm-up then {settings.measure:g} s measured per row; one asyncio process with raw\n"
-        f"HTTP/1.1, on the same {os.cpu_count()}-core machine as the server.\n"
+        f"load: robots at 1 Hz each unless told longer, phases spread over the second,\n"
+        f"{settings.warmup:g} s warm-up then {settings.measure:g} s measured per row; one asyncio "
+        f"process with raw HTTP/1.1, on the same {os.cpu_count()}-core machine as the server.\n"
     )
 
 
@@ -145,11 +159,17 @@ def _load(stack: Stack, robots, endpoint: str, settings: Settings) -> Load:
     from robots.models import PresenceChange
 
     load = Load(len(robots), endpoint, settings.measure)
-    flips = PresenceChange.objects.count()
     cpu, wall = time.process_time(), time.perf_counter()
+    started = datetime.datetime.now(datetime.UTC)
     asyncio.run(_drive(stack.http_port, robots, endpoint, settings, load))
     load.loader_cpu = (time.process_time() - cpu) / (time.perf_counter() - wall)
-    load.flips = PresenceChange.objects.count() - flips
+    # Flips to unreachable after the warm-up, of this row's robots: robots silent during an
+    # earlier row come back online in the warm-up, which is not a flip of this row's making.
+    measured_from = started + datetime.timedelta(seconds=0.5 + settings.warmup)
+    codes = [code for code, _ in robots]
+    load.flips = PresenceChange.objects.filter(
+        robot__code__in=codes, new="unreachable", at__gte=measured_from
+    ).count()
     return load
 
 
@@ -167,9 +187,10 @@ async def _drive(port: int, robots, endpoint: str, settings: Settings, load: Loa
 
 
 async def _robot(port, code, token, endpoint, first, window, load: Load) -> None:
-    """One robot: a heartbeat a second from `first`, each after the previous one's answer."""
+    """One robot: a heartbeat from `first`, then each the interval it was told after the
+    previous one's answer (1 s until told, and for the bare endpoint)."""
     loop = asyncio.get_running_loop()
-    boot, seq, due = uuid.uuid4().hex, 0, first
+    boot, seq, due, interval = uuid.uuid4().hex, 0, first, 1.0
     path = f"/api/v1/robots/{code}/heartbeat" if endpoint == "heartbeat" else "/bench/bare"
     while due < window[1]:
         await asyncio.sleep(max(due - loop.time(), 0))
@@ -177,16 +198,19 @@ async def _robot(port, code, token, endpoint, first, window, load: Load) -> None
         sent = loop.time()
         request = _request(port, path, token, _body(boot, seq, code))
         try:
-            status = await asyncio.wait_for(_exchange(port, request), TIMEOUT)
+            status, body = await asyncio.wait_for(_exchange(port, request), TIMEOUT)
         except (TimeoutError, OSError, asyncio.IncompleteReadError, ValueError) as exc:
-            status = type(exc).__name__
+            status, body = type(exc).__name__, b""
         answered = loop.time()
+        if status == 200 and endpoint == "heartbeat":
+            interval = float(json.loads(body)["heartbeat_interval"])
         if window[0] <= sent and answered <= window[1]:
             if status == 200:
                 load.latencies.append(answered - sent)
+                load.told.append(interval)
             else:
                 load.error(str(status))
-        due = max(due + 1.0, answered)  # a robot heartbeats again only once answered
+        due = max(due + interval, answered)  # a robot heartbeats again only once answered
 
 
 def _body(boot: str, seq: int, code: str) -> bytes:
@@ -224,18 +248,15 @@ def _request(port: int, path: str, token: str, body: bytes) -> bytes:
     return head.encode() + body
 
 
-async def _exchange(port: int, request: bytes) -> int:
+async def _exchange(port: int, request: bytes) -> tuple[int, bytes]:
     reader, writer = await asyncio.open_connection("127.0.0.1", port)
     try:
         writer.write(request)
         head = await reader.readuntil(b"\r\n\r\n")
         status = int(head.split(b" ", 2)[1])
         length = _content_length(head)
-        if length is None:
-            await reader.read()
-        else:
-            await reader.readexactly(length)
-        return status
+        body = await (reader.read() if length is None else reader.readexactly(length))
+        return status, body
     finally:
         writer.close()
 
@@ -254,20 +275,23 @@ def _content_length(head: bytes) -> int | None:
 def _print_table(loads: list[Load]) -> None:
     print(
         f"\n{'robots':>6}  {'endpoint':<10}{'offered/s':>10}{'achieved/s':>11}{'p50 ms':>8}"
-        f"{'p99 ms':>8}{'errors':>8}{'loader CPU':>11}{'flips':>7}"
+        f"{'p99 ms':>8}{'errors':>8}{'loader CPU':>11}{'told s':>7}{'flips':>7}"
     )
     for load in loads:
         latencies = sorted(load.latencies)
         print(
             f"{load.robots:>6}  {load.endpoint if load.endpoint == 'heartbeat' else 'bare {}':<10}"
             f"{load.robots:>10}{load.achieved:>11.0f}{_ms(latencies, 50):>8}{_ms(latencies, 99):>8}"
-            f"{sum(load.errors.values()):>8}{load.loader_cpu:>11.0%}{load.flips:>7}"
+            f"{sum(load.errors.values()):>8}{load.loader_cpu:>11.0%}"
+            f"{_percentile(load.told, 50):>7.1f}{load.flips:>7}"
             + (f"  {load.errors}" if load.errors else "")
         )
     print(
-        "\nflips: presence changes recorded during the row (online <-> unreachable): a robot\n"
-        "whose heartbeats come more than 3 intervals apart is flipped by the sweep and back by\n"
-        "its next heartbeat."
+        "\noffered: heartbeats/s the robots would send at 1 Hz; they obey the interval each\n"
+        "answer tells them (told s: the median told while measured, robots/cadence.py), so\n"
+        "achieved is below offered when the server asks them to slow down.\n"
+        "flips: robots flipped unreachable while measured (after the warm-up): a robot whose\n"
+        "heartbeats come more than 3 told intervals apart is flipped by the sweep."
     )
     print("\nheartbeat / bare endpoint under the same load:")
     for heartbeat, bare in zip(loads[::2], loads[1::2], strict=True):

@@ -14,6 +14,7 @@ from django.utils import timezone
 from boards.hooks import heartbeat_applied
 from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.push import wake_now, wake_on_commit
+from robots.cadence import heartbeat_interval_told
 from robots.models import Robot
 from robots.services import robot_heartbeat_record
 
@@ -62,6 +63,7 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
     is the newest the server has seen.
     """
     now = now or timezone.now()
+    interval = heartbeat_interval_told(robot.site)
     acked = board_ack(robot=robot, public_ids=heartbeat["acks"], now=now)
     events = _events_record(robot, heartbeat, now)
     requests = _requests_record(robot, heartbeat["requests"], now)
@@ -71,6 +73,7 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
         seq=heartbeat["seq"],
         state=heartbeat["state"],
         now=now,
+        interval=interval,
     )
     applied = AppliedHeartbeat(
         robot=robot,
@@ -85,7 +88,7 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
     heartbeat_applied(applied=applied)
     return HeartbeatReply(
         server_time=now,
-        heartbeat_interval=robot.site.heartbeat_interval,
+        heartbeat_interval=interval,
         messages=board_pending(robot=robot),
     )
 

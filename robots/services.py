@@ -67,9 +67,16 @@ def _locking(robots: QuerySet[Robot]) -> QuerySet[Robot]:
 
 
 def robot_heartbeat_record(
-    *, robot: Robot, boot_id: str, seq: int, state: dict, now: datetime
+    *,
+    robot: Robot,
+    boot_id: str,
+    seq: int,
+    state: dict,
+    now: datetime,
+    interval: float | None = None,
 ) -> bool:
-    """Record that a heartbeat arrived; store its state only if it is the newest.
+    """Record that a heartbeat arrived, answered with `interval` (robots.cadence); store its
+    state only if it is the newest.
 
     Returns whether the state was applied. Call with the robot locked (robot_lock).
     """
@@ -81,7 +88,7 @@ def robot_heartbeat_record(
         robot.apply_state(state, now)
         robot.boot_id, robot.seq = boot_id, seq
         update_fields += [*Robot.STATE_FIELDS, "boot_id", "seq"]
-    previous = robot.mark_seen(now)
+    previous = robot.mark_seen(now, interval)
     robot.save(update_fields=update_fields)
     if previous is not None:
         _presence_record(robot, old=previous, new=Presence.ONLINE, at=now, cause="heartbeat")

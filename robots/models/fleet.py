@@ -133,14 +133,17 @@ class Robot(models.Model):
             return Presence.UNREACHABLE
         return Presence.OFFLINE
 
-    def mark_seen(self, now: datetime) -> str | None:
-        """Record a heartbeat at `now`; returns the previous presence if this changed it."""
+    def mark_seen(self, now: datetime, interval: float | None = None) -> str | None:
+        """Record a heartbeat at `now`, answered with `interval` (seconds until the next; the
+        site's if not given); returns the previous presence if this changed it.
+
+        The deadlines follow the interval the robot was told, so a robot told to wait longer
+        (robots/cadence.py) is not flipped for obeying."""
         previous = self.presence
+        online_for = ONLINE_INTERVALS * (interval or self.site.heartbeat_interval)
         self.last_seen_at = now
-        self.unreachable_at = now + timedelta(
-            seconds=ONLINE_INTERVALS * self.site.heartbeat_interval
-        )
-        self.offline_at = now + timedelta(seconds=self.site.offline_timeout)
+        self.unreachable_at = now + timedelta(seconds=online_for)
+        self.offline_at = now + timedelta(seconds=max(self.site.offline_timeout, online_for))
         self.presence = Presence.ONLINE
         return previous if previous != Presence.ONLINE else None
 
