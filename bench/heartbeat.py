@@ -83,6 +83,7 @@ def main(argv: list[str] | None = None) -> int:
         help="a PostgreSQL server to create the benchmark's database on, or sqlite:///",
     )
     parser.add_argument("--web-workers", type=int, help="gunicorn sync workers")
+    parser.add_argument("--robots", type=int, nargs="+", help="rows to run, e.g. --robots 500")
     parser.add_argument(
         "--capacity",
         type=int,
@@ -91,6 +92,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     settings = QUICK if args.quick else FULL
+    if args.robots:
+        settings = Settings(tuple(args.robots), settings.warmup, settings.measure)
     postgres = not args.database.startswith("sqlite")
     workers = args.web_workers or ((2 * os.cpu_count() + 1) if postgres else 3)
     os.environ.setdefault("SECRET_KEY", "bench-only")  # for the servers and manage.py too
@@ -283,7 +286,8 @@ def _print_table(loads: list[Load]) -> None:
             f"{load.robots:>6}  {load.endpoint if load.endpoint == 'heartbeat' else 'bare {}':<10}"
             f"{load.robots:>10}{load.achieved:>11.0f}{_ms(latencies, 50):>8}{_ms(latencies, 99):>8}"
             f"{sum(load.errors.values()):>8}{load.loader_cpu:>11.0%}"
-            f"{_percentile(load.told, 50):>7.1f}{load.flips:>7}"
+            f"{_percentile(load.told, 50):>7.1f}"
+            f"{load.flips if load.endpoint == 'heartbeat' else '-':>7}"
             + (f"  {load.errors}" if load.errors else "")
         )
     print(

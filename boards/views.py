@@ -11,10 +11,19 @@ from boards.metrics import heartbeat_observe
 from boards.protocol import heartbeat_reply_wire
 from boards.serializers import HeartbeatResponseSerializer, HeartbeatSerializer
 from boards.services import HeartbeatRejected, heartbeat_apply
+from core.commits import relaxed_commit_unless_written
 from core.errors import ErrorSerializer
 from core.jsonbody import json_parse
 from robots.authentication import IsRobotInUrl, RobotTokenLockingAuthentication
 from robots.mapcache import site_map
+from robots.models import PresenceChange, Robot, RobotActivity, RobotBoot
+
+# What a heartbeat writes that its robot's next heartbeat writes again: lost in a database
+# crash, nothing is lost (core/commits.py). A heartbeat that wrote anything else (its events,
+# acks or requests, a message posted, a task moved) commits durably as always.
+REWRITTEN_BY_NEXT_HEARTBEAT = frozenset(
+    model._meta.db_table for model in (Robot, PresenceChange, RobotActivity, RobotBoot)
+)
 
 
 class PayloadTooLarge(exceptions.APIException):
@@ -44,7 +53,8 @@ class HeartbeatView(APIView):
 
     One transaction per heartbeat, opened before authentication so that the query finding the
     robot by its token also locks its row (one query fewer on the robots' hot path). Nothing
-    of a refused heartbeat is kept.
+    of a refused heartbeat is kept. A heartbeat that only reported its state commits without
+    waiting for the disk (core/commits.py).
     """
 
     authentication_classes = [RobotTokenLockingAuthentication]
@@ -54,7 +64,8 @@ class HeartbeatView(APIView):
     def dispatch(self, request, *args, **kwargs):
         started = time.perf_counter()
         with transaction.atomic():
-            response = super().dispatch(request, *args, **kwargs)
+            with relaxed_commit_unless_written(tables=REWRITTEN_BY_NEXT_HEARTBEAT):
+                response = super().dispatch(request, *args, **kwargs)
             if response.status_code >= 400:
                 transaction.set_rollback(True)
         seconds = time.perf_counter() - started  # the commit included
