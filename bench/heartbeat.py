@@ -37,7 +37,7 @@ from pathlib import Path
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench.stack import Stack, temporary_database
+from bench.stack import SilentRedis, Stack, temporary_database
 
 ROOT = Path(__file__).resolve().parent.parent
 SITE_FILE = ROOT / "sites" / "eulji.yaml"
@@ -49,10 +49,11 @@ class Settings:
     counts: tuple[int, ...]
     warmup: float
     measure: float
+    stalled: int  # robots of the Redis-stalled pair of rows
 
 
-FULL = Settings(counts=(100, 200, 500, 1000), warmup=3.0, measure=15.0)
-QUICK = Settings(counts=(20, 50), warmup=1.0, measure=2.0)
+FULL = Settings(counts=(100, 200, 500, 1000), warmup=3.0, measure=15.0, stalled=100)
+QUICK = Settings(counts=(20, 50), warmup=1.0, measure=2.0, stalled=20)
 
 
 @dataclass
@@ -85,6 +86,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--web-workers", type=int, help="gunicorn sync workers")
     parser.add_argument("--robots", type=int, nargs="+", help="rows to run, e.g. --robots 500")
     parser.add_argument(
+        "--no-stalled-redis",
+        dest="stalled_redis",
+        action="store_false",
+        help="skip the two rows with Redis answering and stalled",
+    )
+    parser.add_argument(
         "--capacity",
         type=int,
         default=int(os.environ.get("HEARTBEAT_CAPACITY", 300)),
@@ -93,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     settings = QUICK if args.quick else FULL
     if args.robots:
-        settings = Settings(tuple(args.robots), settings.warmup, settings.measure)
+        settings = Settings(tuple(args.robots), settings.warmup, settings.measure, args.robots[0])
     postgres = not args.database.startswith("sqlite")
     workers = args.web_workers or ((2 * os.cpu_count() + 1) if postgres else 3)
     os.environ.setdefault("SECRET_KEY", "bench-only")  # for the servers and manage.py too
@@ -113,8 +120,35 @@ def main(argv: list[str] | None = None) -> int:
             for count in settings.counts:
                 for endpoint in ("heartbeat", "bare"):
                     loads.append(_load(stack, tokens[:count], endpoint, settings))
+        stalled = (
+            _redis_stalled_rows(url, workers, tokens[: settings.stalled], settings)
+            if (args.stalled_redis)
+            else []
+        )
     _print_table(loads)
-    return 0 if all(load.latencies for load in loads) else 1
+    if stalled:
+        _print_stalled(stalled)
+    return 0 if all(load.latencies for load in [*loads, *stalled]) else 1
+
+
+def _redis_stalled_rows(url: str, workers: int, robots, settings: Settings) -> list[Load]:
+    """The same heartbeats from web servers alone (no Celery, no daphne), with Redis answering,
+    then with a Redis that accepts connections and never answers (bench.stack.SilentRedis)."""
+    loads = []
+    with SilentRedis() as silent:
+        for redis_url in (None, silent.url):
+            stack = Stack(
+                database_url=url,
+                redis_url=redis_url,
+                web_workers=workers,
+                daphne=False,
+                worker=False,
+                conn_max_age=60,
+            )
+            with stack:
+                _load(stack, robots, "heartbeat", settings)  # warm the workers
+                loads.append(_load(stack, robots, "heartbeat", settings))
+    return loads
 
 
 def _robots(database_url: str, count: int) -> list[tuple[str, str]]:
@@ -305,6 +339,23 @@ def _print_table(loads: list[Load]) -> None:
             f"{heartbeat.robots:>6} robots: {ratio:.2f} of the bare endpoint's throughput, "
             f"median latency x{slower:.1f}"
         )
+
+
+def _print_stalled(loads: list[Load]) -> None:
+    answering, stalled = loads
+    print(
+        f"\nRedis stalled (accepts connections, never answers): {answering.robots} robots, web "
+        "servers only\n"
+        f"{'redis':<10}{'achieved/s':>11}{'p50 ms':>8}{'p99 ms':>8}{'errors':>8}"
+    )
+    for name, load in (("answering", answering), ("stalled", stalled)):
+        latencies = sorted(load.latencies)
+        print(
+            f"{name:<10}{load.achieved:>11.0f}{_ms(latencies, 50):>8}{_ms(latencies, 99):>8}"
+            f"{sum(load.errors.values()):>8}"
+        )
+    rise = (_percentile(stalled.latencies, 99) - _percentile(answering.latencies, 99)) * 1000
+    print(f"p99 rise with Redis stalled: {rise:+.1f} ms")
 
 
 def _percentile(values: list[float], percent: float) -> float:

@@ -25,6 +25,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import uuid
 from contextlib import contextmanager
@@ -221,13 +222,49 @@ class Stack:
     def _forget_queue(self) -> None:
         import redis
 
-        client = redis.Redis.from_url(self.redis_url)
+        client = redis.Redis.from_url(self.redis_url, socket_timeout=2, socket_connect_timeout=2)
         try:
             client.delete(
                 self.queue, f"_kombu.binding.{self.queue}", f"_kombu.binding_permanent.{self.queue}"
             )
+        except redis.RedisError:
+            pass  # a stalled Redis (SilentRedis) holds no queue to forget
         finally:
             client.close()
+
+
+class SilentRedis:
+    """Accepts every connection and never reads or answers, like a wedged Redis: for a server
+    run with REDIS_URL = silent.url. A context manager."""
+
+    def __init__(self):
+        self.listener = socket.create_server(("127.0.0.1", 0))
+        self.port = self.listener.getsockname()[1]
+        self.held: list[socket.socket] = []
+        threading.Thread(target=self._accept, daemon=True).start()
+
+    @property
+    def url(self) -> str:
+        return f"redis://127.0.0.1:{self.port}/0"
+
+    def _accept(self):
+        while True:
+            try:
+                connection, _ = self.listener.accept()
+            except OSError:
+                return
+            self.held.append(connection)
+
+    def close(self):
+        self.listener.close()
+        for connection in self.held:
+            connection.close()
+
+    def __enter__(self) -> SilentRedis:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
 
 def _signal_group(process: subprocess.Popen, signum: int) -> None:

@@ -6,43 +6,19 @@ timeout and retry. Here gunicorn runs with REDIS_URL pointing at such a listener
 """
 
 import re
-import socket
 import statistics
-import threading
 import time
 
 import pytest
 import requests
 
+from bench.stack import SilentRedis
 from core.pubsub import PUBLISH_TIMEOUT
 from tests import factories, servers
 from tests.conftest import RobotHttp
 
 # Far below the 5-10 s a stalled publish took, far above a heartbeat on a busy test machine.
 PROMPT = 2.0
-
-
-class SilentRedis:
-    """Accepts every connection and never reads or answers, like a wedged Redis."""
-
-    def __init__(self):
-        self.listener = socket.create_server(("127.0.0.1", 0))
-        self.port = self.listener.getsockname()[1]
-        self.held: list[socket.socket] = []
-        threading.Thread(target=self._accept, daemon=True).start()
-
-    def _accept(self):
-        while True:
-            try:
-                connection, _ = self.listener.accept()
-            except OSError:
-                return
-            self.held.append(connection)
-
-    def close(self):
-        self.listener.close()
-        for connection in self.held:
-            connection.close()
 
 
 @pytest.fixture
@@ -54,7 +30,7 @@ def silent_redis():
 
 @pytest.fixture
 def stalled_server(transactional_db, silent_redis):
-    env = {"REDIS_URL": f"redis://127.0.0.1:{silent_redis.port}/0"}
+    env = {"REDIS_URL": silent_redis.url}
     with servers.gunicorn(workers=2, env=env) as url:
         yield url
 
