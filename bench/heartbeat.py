@@ -29,6 +29,7 @@ import os
 import platform
 import shlex
 import sys
+import threading
 import time
 import uuid
 from dataclasses import dataclass, field
@@ -66,6 +67,8 @@ class Load:
     loader_cpu: float = 0.0  # share of one core
     flips: int = 0  # robots flipped unreachable while measured (PresenceChange rows)
     told: list[float] = field(default_factory=list)  # heartbeat_interval of answers, seconds
+    push: list[float] = field(default_factory=list)  # plan posted -> in a probe's hands, s
+    push_lost: int = 0  # plans posted that no probe received within PUSH_DEADLINE
 
     @property
     def achieved(self) -> float:
@@ -105,7 +108,6 @@ def main(argv: list[str] | None = None) -> int:
     workers = args.web_workers or ((2 * os.cpu_count() + 1) if postgres else 3)
     os.environ.setdefault("SECRET_KEY", "bench-only")  # for the servers and manage.py too
     with temporary_database(args.database) as url:
-        tokens = _robots(url, max(settings.counts))
         stack = Stack(
             database_url=url,
             web_workers=workers,
@@ -113,13 +115,18 @@ def main(argv: list[str] | None = None) -> int:
             conn_max_age=60,
             env={"HEARTBEAT_CAPACITY": str(args.capacity)},
         )
+        # This process posts the probes' plans: its wake-ups must reach the stack's daphne.
+        os.environ.update(CHANNELS_PREFIX=stack.channels_prefix, REDIS_URL=stack.redis_url)
+        tokens = _robots(url, max(settings.counts) + PUSH_PROBES)
+        probes, tokens = tokens[-PUSH_PROBES:], tokens[:-PUSH_PROBES]
         with stack:
             _print_header(stack, postgres, settings, argv, args.capacity)
             _load(stack, tokens[: settings.counts[0]], "heartbeat", settings)  # warm the workers
             loads = []
-            for count in settings.counts:
-                for endpoint in ("heartbeat", "bare"):
-                    loads.append(_load(stack, tokens[:count], endpoint, settings))
+            with PushProbes(stack, probes) as push:
+                for count in settings.counts:
+                    for endpoint in ("heartbeat", "bare"):
+                        loads.append(_load(stack, tokens[:count], endpoint, settings, push))
         stalled = (
             _redis_stalled_rows(url, workers, tokens[: settings.stalled], settings)
             if (args.stalled_redis)
@@ -189,23 +196,110 @@ def _print_header(stack: Stack, postgres: bool, settings: Settings, argv, capaci
     )
 
 
+# --- Plans pushed under load ----------------------------------------------------------------------
+
+PUSH_PROBES = 4  # robots with the push channel, beside the row's robots
+PUSH_EVERY = 0.25  # seconds between plans posted to them
+PUSH_DEADLINE = 10.0  # seconds for a probe to receive a plan before it counts as lost
+
+
+class PushProbes:
+    """A few robots speaking the whole protocol (robotsim's client: heartbeats at the interval
+    told, the push channel, acks) while a row's robots load the server. This process posts a
+    plan to one of them every PUSH_EVERY seconds, as the scheduler would (boards.services
+    board_post: the wake-up goes through Redis to daphne to the robot's socket), and times it
+    from the post to the heartbeat answer that hands it to the robot."""
+
+    def __init__(self, stack: Stack, robots):
+        from robotsim.client import RobotClient
+
+        self.stack, self.stop = stack, threading.Event()
+        self.clients = [
+            RobotClient(server_url=stack.http_url, robot=code, token=token)
+            for code, token in robots
+        ]
+        self.tokens = dict(robots)
+        self.posted: dict[str, float] = {}
+        self.received: dict[str, float] = {}
+        self.poster: threading.Thread | None = None
+        self.version = 0
+        for client in self.clients:
+            client.update_state(status="idle", floor="15F", waypoint="15F-DOCK-1", battery=1.0)
+            client.on("plan", self._received)
+
+    def _received(self, message: dict) -> None:
+        self.received.setdefault(message["id"], time.perf_counter())
+
+    def __enter__(self) -> PushProbes:
+        from robotsim.client import listen_for_wakes
+
+        for client in self.clients:
+            token = self.tokens[client.robot]
+            kwargs = {"ws_url": self.stack.ws_url, "token": token, "stop": self.stop}
+            threading.Thread(target=listen_for_wakes, args=(client,), kwargs=kwargs).start()
+            threading.Thread(target=client.run, kwargs={"stop": self.stop}).start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.stop.set()
+        for client in self.clients:
+            client.wake.set()
+
+    def measure(self, *, after: float, seconds: float) -> None:
+        """Post plans from `after` seconds from now, for `seconds` (in a thread)."""
+        self.posted, self.received = {}, {}
+        self.poster = threading.Thread(target=self._post, args=(after, seconds))
+        self.poster.start()
+
+    def _post(self, after: float, seconds: float) -> None:
+        from boards.protocol import plan_body
+        from boards.services import board_post
+        from robots.models import Robot
+
+        robots = {r.code: r for r in Robot.objects.filter(code__in=self.tokens)}
+        self.stop.wait(after)
+        end = time.perf_counter() + seconds
+        for n in range(int(seconds / PUSH_EVERY)):
+            client = self.clients[n % len(self.clients)]
+            self.version += 1  # newer than any plan the probes have had
+            body = plan_body(version=self.version, stops=[], tasks={})
+            message = board_post(robot=robots[client.robot], type="plan", body=body, key="plan")
+            self.posted[message.public_id] = time.perf_counter()
+            self.stop.wait(max(end - seconds + (n + 1) * PUSH_EVERY - time.perf_counter(), 0))
+
+    def results(self) -> tuple[list[float], int]:
+        self.poster.join()
+        deadline = time.perf_counter() + PUSH_DEADLINE
+        while len(self.received.keys() & self.posted.keys()) < len(self.posted):
+            if time.perf_counter() > deadline:
+                break
+            time.sleep(0.05)
+        times = [self.received[m] - at for m, at in self.posted.items() if m in self.received]
+        return times, len(self.posted) - len(times)
+
+
 # --- The load -----------------------------------------------------------------------------------
 
 
-def _load(stack: Stack, robots, endpoint: str, settings: Settings) -> Load:
+def _load(stack: Stack, robots, endpoint: str, settings: Settings, push=None) -> Load:
     from robots.models import PresenceChange
 
     load = Load(len(robots), endpoint, settings.measure)
     cpu, wall = time.process_time(), time.perf_counter()
     started = datetime.datetime.now(datetime.UTC)
+    if push and endpoint == "heartbeat":
+        push.measure(after=0.5 + settings.warmup, seconds=settings.measure)
     asyncio.run(_drive(stack.http_port, robots, endpoint, settings, load))
+    if push and endpoint == "heartbeat":
+        load.push, load.push_lost = push.results()
     load.loader_cpu = (time.process_time() - cpu) / (time.perf_counter() - wall)
     # Flips to unreachable after the warm-up, of this row's robots: robots silent during an
     # earlier row come back online in the warm-up, which is not a flip of this row's making.
     measured_from = started + datetime.timedelta(seconds=0.5 + settings.warmup)
+    measured_to = measured_from + datetime.timedelta(seconds=settings.measure)
     codes = [code for code, _ in robots]
     load.flips = PresenceChange.objects.filter(
-        robot__code__in=codes, new="unreachable", at__gte=measured_from
+        robot__code__in=codes, new="unreachable", at__gte=measured_from, at__lt=measured_to
     ).count()
     return load
 
@@ -313,6 +407,7 @@ def _print_table(loads: list[Load]) -> None:
     print(
         f"\n{'robots':>6}  {'endpoint':<10}{'offered/s':>10}{'achieved/s':>11}{'p50 ms':>8}"
         f"{'p99 ms':>8}{'errors':>8}{'loader CPU':>11}{'told s':>7}{'flips':>7}"
+        f"{'push p50':>9}{'push max':>9}"
     )
     for load in loads:
         latencies = sorted(load.latencies)
@@ -322,6 +417,9 @@ def _print_table(loads: list[Load]) -> None:
             f"{sum(load.errors.values()):>8}{load.loader_cpu:>11.0%}"
             f"{_percentile(load.told, 50):>7.1f}"
             f"{load.flips if load.endpoint == 'heartbeat' else '-':>7}"
+            f"{_ms(load.push, 50) if load.push else '-':>9}"
+            f"{_ms(load.push, 100) if load.push else '-':>9}"
+            + (f"  ({load.push_lost} plans lost)" if load.push_lost else "")
             + (f"  {load.errors}" if load.errors else "")
         )
     print(
@@ -329,7 +427,10 @@ def _print_table(loads: list[Load]) -> None:
         "answer tells them (told s: the median told while measured, robots/cadence.py), so\n"
         "achieved is below offered when the server asks them to slow down.\n"
         "flips: robots flipped unreachable while measured (after the warm-up): a robot whose\n"
-        "heartbeats come more than 3 told intervals apart is flipped by the sweep."
+        "heartbeats come more than 3 told intervals apart is flipped by the sweep.\n"
+        f"push: {PUSH_PROBES} more robots hold the push channel; a plan is posted to one of them "
+        f"every {PUSH_EVERY:g} s\n"
+        "while measured; ms from the post to the heartbeat answer handing it to the robot."
     )
     print("\nheartbeat / bare endpoint under the same load:")
     for heartbeat, bare in zip(loads[::2], loads[1::2], strict=True):
