@@ -7,7 +7,7 @@ from rest_framework import exceptions, status
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
-from boards.metrics import heartbeat_observe
+from boards.metrics import heartbeat_interval_told_observe, heartbeat_observe
 from boards.protocol import heartbeat_reply_wire
 from boards.serializers import HeartbeatResponseSerializer, HeartbeatSerializer
 from boards.services import HeartbeatRejected, heartbeat_apply
@@ -93,4 +93,5 @@ class HeartbeatView(APIView):
             reply = heartbeat_apply(robot=robot, heartbeat=serializer.validated_data)
         except HeartbeatRejected as rejected:
             raise exceptions.ValidationError(rejected.errors) from None
+        heartbeat_interval_told_observe(reply.heartbeat_interval)
         return Response(heartbeat_reply_wire(reply))
