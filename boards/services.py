@@ -34,6 +34,9 @@ class AppliedHeartbeat:
     robot: Robot
     now: datetime
     state_applied: bool
+    # The robot's software started again (a boot_id not seen before, and this is its newest
+    # heartbeat): it may have lost its plan (scheduling.services.plans.plan_restore).
+    new_boot: bool = False
     acked: list[BoardMessage] = field(default_factory=list)
     events: list[RobotEvent] = field(default_factory=list)
     requests: list[RobotRequest] = field(default_factory=list)
@@ -67,6 +70,7 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
     acked = board_ack(robot=robot, public_ids=heartbeat["acks"], now=now)
     events = _events_record(robot, heartbeat, now)
     requests = _requests_record(robot, heartbeat["requests"], now)
+    boot_before = robot.boot_id
     state_applied = robot_heartbeat_record(
         robot=robot,
         boot_id=heartbeat["boot_id"],
@@ -79,6 +83,7 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
         robot=robot,
         now=now,
         state_applied=state_applied,
+        new_boot=state_applied and robot.boot_id != boot_before and bool(boot_before),
         acked=acked,
         events=events,
         requests=requests,

@@ -5,6 +5,7 @@ from robots.choices import Presence
 from scheduling import services
 from scheduling.services.charging import robot_battery_check
 from scheduling.services.etas import heartbeat_progress
+from scheduling.services.plans import plan_restore
 
 
 def on_heartbeat_applied(*, applied) -> None:
@@ -12,6 +13,8 @@ def on_heartbeat_applied(*, applied) -> None:
     # After its events: what a faulty robot reports loaded in the same heartbeat stays with it.
     services.heartbeat_fault_check(applied=applied)
     heartbeat_progress(applied=applied)  # learn the robot's pace, recompute its ETAs
+    if applied.new_boot:  # a restarted robot that lost its acked plan gets one again
+        plan_restore(robot=applied.robot, now=applied.now)
     if applied.state_applied:
         robot_battery_check(robot=applied.robot, now=applied.now)
 

@@ -75,6 +75,20 @@ def robot_dock_if_idle(*, robot: Robot, now: datetime) -> RobotPlan | None:
     return plan_dock_post(robot=robot, now=now)
 
 
+def plan_restore(*, robot: Robot, now: datetime) -> RobotPlan | None:
+    """After a restart (a new boot_id), post the robot a plan again if it lost the one it had
+    acked: the version it reports is older than the last posted, and none is on its board.
+
+    The plan is made afresh from where the robot is now, with a newer version, so a robot that
+    applies only newer plans takes it. Called with the robot's row locked, from its first
+    heartbeat after the restart."""
+    current = RobotPlan.objects.filter(robot=robot).select_related("message").first()
+    if current is None or robot.plan_version >= current.version or _may_be_pending(current):
+        return None
+    logger.info("%s restarted without plan %d: posting it again", robot.code, current.version)
+    return robot_replan(robot=robot, now=now)
+
+
 def plan_withdraw_pending(*, robot: Robot, reason: str, now: datetime) -> int:
     """Take the robot's unacked plan off its board (protocol v1, withdrawing an assignment)."""
     pending = BoardMessage.objects.pending().filter(robot=robot, key=PLAN_KEY)
