@@ -35,6 +35,7 @@ def robot_payload(robot) -> dict:
         "errors": list(robot.errors or []),
         "paused_by_operator": robot.paused_by_operator,
         "held_after_fault": robot.fault_at is not None,
+        "sent_to_charge": robot.sent_to_charge,
         "last_seen_at": robot.last_seen_at.isoformat() if robot.last_seen_at else None,
     }
 
