@@ -55,9 +55,12 @@ class Period:
         return [self.first + timedelta(days=n) for n in range((self.last - self.first).days + 1)]
 
 
-def period_partials(period: Period, *, now: datetime) -> dict[str, dict]:
-    """Every figure's partial over the whole period, straight from the histories."""
-    return {name: figure(period, now=now) for name, figure in FIGURES.items()}
+def period_partials(
+    period: Period, *, now: datetime, names: list[str] | None = None
+) -> dict[str, dict]:
+    """The figures' partials (every figure, or those `names`) over the whole period, straight
+    from the histories."""
+    return {name: FIGURES[name](period, now=now) for name in names or FIGURES}
 
 
 def _tasks(period: Period):

@@ -38,7 +38,8 @@ class Table:
 
     def compute(self, period: Period, *, now: datetime, figures: dict | None = None) -> list[dict]:
         """The rows; `figures` (reports/rollups.period_figures) when several tables share them."""
-        figures = figures if figures is not None else period_figures(period, now=now)
+        if figures is None:
+            figures = period_figures(period, now=now, names=[self.key])
         return self.rows(period, figures.get(self.key, {}))
 
 
