@@ -15,5 +15,6 @@ TASK = "task"  # subject: the TaskTransition just recorded (its task as changed)
 LEASE = "lease"  # subject: the Lease; detail: resource=its Resource
 ALERT = "alert"  # subject: the Alert just raised
 ALERT_ACKNOWLEDGED = "alert_acknowledged"  # subject: the Alert
+ETAS = "etas"  # subject: the Tasks whose ETAs a robot's progress just changed
 
 changed = Hook("changed", "kind: str, site_id: int, subject, **detail")

@@ -42,17 +42,3 @@ def env_list(name: str, default: list[str]) -> list[str]:
     if raw is None:
         return default
     return [item.strip() for item in raw.split(",") if item.strip()]
-
-
-def env_minutes(name: str, default: str) -> dict[str, int]:
-    """ "urgent=15,normal=60,*=60" -> {"urgent": 15, "normal": 60, "*": 60}; "*" is required."""
-    raw = os.environ.get(name, default)
-    minutes = {}
-    for item in filter(None, (part.strip() for part in raw.split(","))):
-        key, _, value = item.partition("=")
-        if not key.strip() or not value.strip().isdigit() or int(value) < 1:
-            raise ImproperlyConfigured(f"{name}: {item!r} is not NAME=MINUTES (at least 1)")
-        minutes[key.strip()] = int(value)
-    if "*" not in minutes:
-        raise ImproperlyConfigured(f"{name}={raw!r} names no default (*=MINUTES)")
-    return minutes

@@ -9,7 +9,7 @@ from pathlib import Path
 import dj_database_url
 from django.core.exceptions import ImproperlyConfigured
 
-from hospital_delivery.env import env_bool, env_int, env_list, env_minutes, env_str
+from hospital_delivery.env import env_bool, env_int, env_list, env_str
 
 BASE_DIR = Path(__file__).resolve().parent.parent
 
@@ -253,10 +253,6 @@ if ALLOCATION_POLICY not in ALLOCATION_POLICIES:
 # and always when this is off, by the Celery worker.
 ALLOCATE_ON_REQUEST = env_bool("ALLOCATE_ON_REQUEST", True)
 
-# Minutes from a delivery's requested time to its due time, per priority ("*": any other), for
-# the reports' on-time share and the past-due metric (reports/due.py).
-DELIVERY_DUE_MINUTES = env_minutes("DELIVERY_DUE_MINUTES", "urgent=15,normal=60,*=60")
-
 # Bearer token that may scrape /metrics (besides operators' and staff's logins); none if empty.
 METRICS_TOKEN = env_str("METRICS_TOKEN", "")
 
@@ -314,6 +310,9 @@ CELERY_BEAT_SCHEDULE = {
     "scheduling-recurring-sweep": _sweep("scheduling.tasks.recurring_sweep", 30),
     "scheduling-unload-timeout-sweep": _sweep("scheduling.tasks.unload_timeout_sweep", 10),
     "webhooks-send-sweep": _sweep("webhooks.tasks.send_sweep", WEBHOOK_SWEEP_SECONDS),
+    # Stores the reports' figures of each settled day (reports/rollups.py); cheap when there
+    # is nothing new, and at this interval the watchdog sees it run soon after a start.
+    "reports-rollup-sweep": _sweep("reports.tasks.rollup_sweep", 30),
 }
 
 LOG_LEVEL = env_str("LOG_LEVEL", "INFO")

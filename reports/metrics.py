@@ -77,8 +77,8 @@ class FleetCollector(Collector):
             tasks.add_metric([row["site"], row["status"]], row["n"])
         late = _gauge(
             "hd_tasks_past_due",
-            "Deliveries not yet delivered past their due time (requested time + the "
-            "priority's DELIVERY_DUE_MINUTES)",
+            "Deliveries not yet delivered past their own due time (due_at: the request's "
+            "due_by, or its site's due time for its priority)",
             "priority",
         )
         for row in monitoring.tasks_past_due(self.now):

@@ -17,7 +17,6 @@ from django.db.models import Count, Min
 
 from boards.models import BoardMessage
 from core.watchdog import sweeps_last_runs
-from reports.due import requested_before_due
 from resources.choices import LeaseState
 from resources.models import Lease
 from robots.choices import Presence
@@ -49,8 +48,9 @@ def tasks_by_status() -> list[dict]:
 
 
 def tasks_past_due(now: datetime) -> list[dict]:
-    """[{"site", "priority", "n"}]: deliveries not yet delivered whose due time has passed."""
-    late = Task.objects.filter(requested_before_due(now), status__in=UNDELIVERED)
+    """[{"site", "priority", "n"}]: deliveries not yet delivered whose own due time (`due_at`)
+    has passed; tasks from before deadlines existed have none and are never past due."""
+    late = Task.objects.filter(due_at__lt=now, status__in=UNDELIVERED)
     rows = late.values("site__code", "priority").annotate(n=Count("pk"))
     return [_site(row) for row in rows.order_by()]
 

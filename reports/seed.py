@@ -14,11 +14,13 @@ from datetime import datetime, timedelta
 from django.db import transaction
 from django.utils import timezone
 
+from reports.models import DailyRollup
 from resources.choices import LeaseEndCause, LeaseState
 from resources.models import Lease
 from robots.choices import WaypointKind
 from robots.models import Alert, AlertKind, Resource, Robot, RobotActivity, Site, Waypoint
 from scheduling.choices import Cause, StopAction, TaskStatus
+from scheduling.deadlines import due_at_default
 from scheduling.models import Task, TaskStop, TaskTransition
 
 BATCH = 5000
@@ -59,6 +61,8 @@ def history_seed(*, site: Site, deliveries: int, days: int, end: datetime, seed:
         raise ValueError(f"site {site.code} needs robots and at least two stations")
     start = end - timedelta(days=days)
     with transaction.atomic():
+        # The days it writes into are no longer what their stored figures say.
+        DailyRollup.objects.filter(site=site, day__gte=timezone.localdate(start)).delete()
         tasks = _tasks(rng, site, robots, stations, start, end, deliveries)
         transitions = _histories(tasks)
         leases = _leases(rng, tasks, resources)
@@ -130,6 +134,7 @@ def _task(rng, site, robot, requested: datetime, priority: str) -> Task:
         robot=robot,
         assigned_at=assigned,
         acknowledged_at=acknowledged,
+        due_at=due_at_default(site=site, priority=priority, requested_time=requested),
     )
     if fate < 0.02:  # cancelled before pick-up
         task.status, task.cancelled_at = TaskStatus.CANCELLED, acknowledged + timedelta(minutes=1)

@@ -1,8 +1,11 @@
-"""The reports' figures for a site and a date range, each computed by the database in one
-aggregate query over the stored histories (tasks and their stops and transitions, the robots'
-activity, leases, alerts). Indexed on the site and time of each (bench/reports.py times them).
+"""The reports' figures for a site over a span of time, each computed by the database in
+aggregate queries over the stored histories (tasks and their stops and transitions, the robots'
+activity, leases, alerts), indexed on the site and time of each.
 
-Each returns rows (dicts) with the same keys as its CSV export (reports/tables.py).
+Each figure is a mergeable partial: counts, sums of seconds and histograms of durations
+(reports/histograms.py), so that the partials of consecutive days added together are the
+figure over those days. reports/rollups.py stores closed days' partials and adds them up for a
+period; reports/tables.py turns the sum into the rows of each table, chart and CSV.
 """
 
 from collections import defaultdict
@@ -12,28 +15,19 @@ from zoneinfo import ZoneInfo
 
 from django.conf import settings
 from django.db import connection
-from django.db.models import Case, Count, DurationField, F, Q, Value, When
-from django.db.models.functions import Coalesce, ExtractHour, NullIf, TruncDate
+from django.db.models import Count, F, Q, Value
+from django.db.models.functions import Coalesce, Concat, ExtractHour, NullIf, Round, TruncDate
 
-from reports.aggregates import Percentile, Seconds, database_percentiles, percentile
-from reports.due import OTHERS, due_delta
+from reports.aggregates import Seconds
 from resources.models import Lease
 from robots.models import Alert, Robot, RobotActivity, Site
 from scheduling.choices import StopAction, TaskStatus
 from scheduling.models import Task, TaskStop, TaskTransition
 
-# Robot activities (RobotActivity.activity: a reported status, or a presence) in the groups
-# the utilisation report shows, in its order.
-ACTIVITY_GROUPS = {
-    "moving": ["moving", "in_resource"],
-    "waiting_resource": ["waiting_resource"],
-    "loading_unloading": ["waiting_load", "waiting_unload"],
-    "idle": ["idle", "paused", "unknown"],
-    "charging": ["charging"],
-    "error": ["error"],
-    "offline": ["unreachable", "offline"],
-}
-GROUP_OF = {activity: group for group, members in ACTIVITY_GROUPS.items() for activity in members}
+# Histogram bucket widths (seconds): turnarounds are shown in tenths of a minute, waits in
+# tenths of a second; a percentile is within half a bucket of the exact one.
+TURNAROUND_WIDTH = 1.0
+WAIT_WIDTH = 0.1
 
 
 @dataclass(frozen=True)
@@ -56,6 +50,18 @@ class Period:
     def end(self) -> datetime:
         return datetime.combine(self.last + timedelta(days=1), time.min, tzinfo=self.zone)
 
+    @property
+    def days(self) -> list[date]:
+        return [self.first + timedelta(days=n) for n in range((self.last - self.first).days + 1)]
+
+
+def period_partials(
+    period: Period, *, now: datetime, names: list[str] | None = None
+) -> dict[str, dict]:
+    """The figures' partials (every figure, or those `names`) over the whole period, straight
+    from the histories."""
+    return {name: FIGURES[name](period, now=now) for name in names or FIGURES}
+
 
 def _tasks(period: Period):
     return Task.objects.filter(
@@ -63,57 +69,47 @@ def _tasks(period: Period):
     ).order_by()
 
 
-def deliveries_per_day(period: Period) -> list[dict]:
+def deliveries_per_day(period: Period, *, now: datetime) -> dict[str, int]:
+    """{day: deliveries requested that day}."""
     rows = (
         _tasks(period)
         .annotate(day=TruncDate("requested_time", tzinfo=period.zone))
         .values("day")
-        .annotate(deliveries=Count("pk"))
+        .annotate(n=Count("pk"))
     )
-    counts = {row["day"]: row["deliveries"] for row in rows}
-    days = (period.first + timedelta(days=n) for n in range((period.last - period.first).days + 1))
-    return [{"day": day.isoformat(), "deliveries": counts.get(day, 0)} for day in days]
+    return {row["day"].isoformat(): row["n"] for row in rows}
 
 
-def deliveries_per_hour(period: Period) -> list[dict]:
+def deliveries_per_hour(period: Period, *, now: datetime) -> dict[str, int]:
+    """{hour of day: deliveries requested in that hour}."""
     rows = (
         _tasks(period)
         .annotate(hour=ExtractHour("requested_time", tzinfo=period.zone))
         .values("hour")
-        .annotate(deliveries=Count("pk"))
+        .annotate(n=Count("pk"))
     )
-    counts = {row["hour"]: row["deliveries"] for row in rows}
-    return [{"hour": f"{hour:02d}:00", "deliveries": counts.get(hour, 0)} for hour in range(24)]
+    return {str(row["hour"]): row["n"] for row in rows}
 
 
-def _due(priority_field: str) -> Case:
-    """Each row's due time after its requested time, by its priority (reports/due.py)."""
-    named = [p for p in settings.DELIVERY_DUE_MINUTES if p != OTHERS]
-    return Case(
-        *(When(**{priority_field: p}, then=Value(due_delta(p))) for p in named),
-        default=Value(due_delta(OTHERS)),
-        output_field=DurationField(),
-    )
-
-
-def turnaround_by_priority(period: Period) -> list[dict]:
-    """Per priority present: deliveries, request->pick-up and ->drop-off (median, p90, in
-    minutes), and the share delivered by its due time (of those not cancelled)."""
-    tasks = _tasks(period)
-    due_at = F("requested_time") + _due("priority")
+def turnaround_by_priority(period: Period, *, now: datetime) -> dict[str, dict]:
+    """Per priority: deliveries, cancelled, those with a due time and not cancelled ("due"),
+    those delivered by it (`Task.due_at`, the request's own or its priority's at the site;
+    tasks from before deadlines existed have none and count in neither), and histograms of
+    request -> pick-up and request -> drop-off."""
     figures = {
         "deliveries": Count("pk"),
         "cancelled": Count("pk", filter=Q(status=TaskStatus.CANCELLED)),
-        "on_time": Count("pk", filter=Q(delivered_at__lte=due_at)),
+        "due": Count("pk", filter=Q(due_at__isnull=False) & ~Q(status=TaskStatus.CANCELLED)),
+        "on_time": Count("pk", filter=Q(delivered_at__lte=F("due_at"))),
     }
     durations = {
         "pickup": Seconds("picked_up_at", "requested_time"),
         "dropoff": Seconds("delivered_at", "requested_time"),
     }
-    return _turnaround(tasks, "priority", figures, durations)
+    return _turnaround(_tasks(period), "priority", figures, durations)
 
 
-def turnaround_by_ward(period: Period) -> list[dict]:
+def turnaround_by_ward(period: Period, *, now: datetime) -> dict[str, dict]:
     """The same per drop-off station: request -> that drop-off (and the task's pick-up)."""
     stops = TaskStop.objects.filter(
         action=StopAction.DROPOFF,
@@ -122,11 +118,13 @@ def turnaround_by_ward(period: Period) -> list[dict]:
         task__requested_time__lt=period.end,
     ).order_by()
     stops = stops.annotate(ward=Coalesce(NullIf("waypoint__name", Value("")), "waypoint__code"))
-    due_at = F("task__requested_time") + _due("task__priority")
     figures = {
         "deliveries": Count("pk"),
         "cancelled": Count("pk", filter=Q(task__status=TaskStatus.CANCELLED)),
-        "on_time": Count("pk", filter=Q(done_at__lte=due_at)),
+        "due": Count(
+            "pk", filter=Q(task__due_at__isnull=False) & ~Q(task__status=TaskStatus.CANCELLED)
+        ),
+        "on_time": Count("pk", filter=Q(done_at__lte=F("task__due_at"))),
     }
     durations = {
         "pickup": Seconds("task__picked_up_at", "task__requested_time"),
@@ -135,65 +133,29 @@ def turnaround_by_ward(period: Period) -> list[dict]:
     return _turnaround(stops, "ward", figures, durations)
 
 
-def _turnaround(rows, key: str, figures: dict, durations: dict) -> list[dict]:
-    if database_percentiles():
-        for name, seconds in durations.items():
-            figures[f"{name}_p50"] = Percentile(seconds, 0.5)
-            figures[f"{name}_p90"] = Percentile(seconds, 0.9)
-        grouped = list(rows.values(key).annotate(**figures).order_by(key))
-    else:
-        grouped = _percentiles_in_python(rows, key, figures, durations)
-    return [_turnaround_row(row, key) for row in grouped]
+def _turnaround(rows, key: str, figures: dict, durations: dict) -> dict[str, dict]:
+    grouped = rows.values(key).annotate(**figures)
+    result = {row[key]: {name: row[name] for name in figures} for row in grouped}
+    for name, seconds in durations.items():
+        for counts in result.values():
+            counts[name] = {}
+        for row in _histogram(rows, key, seconds, TURNAROUND_WIDTH):
+            result[row[key]][name][str(int(row["bucket"]))] = row["n"]
+    return result
 
 
-def _percentiles_in_python(rows, key, figures, durations) -> list[dict]:
-    grouped = list(rows.values(key).annotate(**figures).order_by(key))
-    values = defaultdict(lambda: defaultdict(list))
-    for row in rows.annotate(**{f"_{n}": e for n, e in durations.items()}).values(
-        key, *(f"_{n}" for n in durations)
-    ):
-        for name in durations:
-            values[row[key]][name].append(row[f"_{name}"])
-    for row in grouped:
-        for name in durations:
-            row[f"{name}_p50"] = percentile(values[row[key]][name], 0.5)
-            row[f"{name}_p90"] = percentile(values[row[key]][name], 0.9)
-    return grouped
+def _histogram(rows, key: str, seconds, width: float):
+    """(key, bucket, count) rows: how many durations round to each bucket (of `width` s)."""
+    bucket = Round(seconds * Value(1 / width)) if width != 1 else Round(seconds)
+    return (
+        rows.annotate(bucket=bucket)
+        .filter(bucket__isnull=False)
+        .values(key, "bucket")
+        .annotate(n=Count("pk"))
+    )
 
 
-def _turnaround_row(row: dict, key: str) -> dict:
-    counted = row["deliveries"] - row["cancelled"]
-    minutes = {
-        name: None if row[name] is None else round(row[name] / 60, 1)
-        for name in ("pickup_p50", "pickup_p90", "dropoff_p50", "dropoff_p90")
-    }
-    return {
-        key: row[key] or "—",
-        "deliveries": row["deliveries"],
-        "cancelled": row["cancelled"],
-        **{f"{name}_min": value for name, value in minutes.items()},
-        "on_time_pct": round(100 * row["on_time"] / counted, 1) if counted else None,
-    }
-
-
-def robot_utilisation(period: Period, *, now: datetime) -> list[dict]:
-    """Per robot, hours in each activity group within the period (up to now), and shares."""
-    seconds = _activity_seconds(period, now=now)
-    rows = []
-    for robot_id, code in Robot.objects.filter(site=period.site).values_list("pk", "code"):
-        spent = dict.fromkeys(ACTIVITY_GROUPS, 0.0)
-        for activity, duration in seconds.get(robot_id, {}).items():
-            spent[GROUP_OF.get(activity, "idle")] += duration
-        total = sum(spent.values())
-        row = {"robot": code}
-        for group, duration in spent.items():
-            row[f"{group}_h"] = round(duration / 3600, 2)
-            row[f"{group}_pct"] = round(100 * duration / total, 1) if total else 0.0
-        rows.append(row)
-    return rows
-
-
-def _activity_seconds(period: Period, *, now: datetime) -> dict[int, dict[str, float]]:
+def robot_utilisation(period: Period, *, now: datetime) -> dict[str, dict[str, float]]:
     """{robot id: {activity: seconds}} within [start, min(end, now)).
 
     Each activity row lasts until the robot's next one (LEAD); the row in force at the start is
@@ -227,12 +189,12 @@ def _activity_seconds(period: Period, *, now: datetime) -> dict[int, dict[str, f
     adapt = connection.ops.adapt_datetimefield_value
     start, stop = adapt(period.start), adapt(stop)
     params = [period.site.pk, start, stop, start, period.site.pk, stop, stop, start]
-    result: dict[int, dict[str, float]] = defaultdict(dict)
+    result: dict[str, dict[str, float]] = defaultdict(dict)
     with connection.cursor() as cursor:
         cursor.execute(sql, params)
         for robot_id, activity, total in cursor.fetchall():
-            result[robot_id][activity] = max(float(total or 0), 0.0)
-    return result
+            result[str(robot_id)][activity] = max(float(total or 0), 0.0)
+    return dict(result)
 
 
 def _seconds_sql(end: str, start: str) -> str:
@@ -241,54 +203,27 @@ def _seconds_sql(end: str, start: str) -> str:
     return f"((julianday({end}) - julianday({start})) * 86400.0)"
 
 
-def resource_waits(period: Period) -> list[dict]:
-    """Per elevator, door and corridor: requests, and the wait from request to grant."""
+def resource_waits(period: Period, *, now: datetime) -> dict[str, dict]:
+    """{"kind:code": {"requests": n, "wait": histogram of request -> grant}} per resource."""
     leases = Lease.objects.filter(
         resource__site=period.site,
         requested_at__gte=period.start,
         requested_at__lt=period.end,
         granted_at__isnull=False,
     ).order_by()
-    leases = leases.annotate(resource_code=F("resource__code"), kind=F("resource__kind"))
-    wait = {"wait": Seconds("granted_at", "requested_at")}
-    figures = {"requests": Count("pk")}
-    if database_percentiles():
-        figures |= {
-            "wait_p50": Percentile(wait["wait"], 0.5),
-            "wait_p90": Percentile(wait["wait"], 0.9),
-        }
-        rows = list(
-            leases.values("resource_code", "kind").annotate(**figures).order_by("resource_code")
-        )
-    else:
-        rows = _waits_in_python(leases, figures, wait["wait"])
-    return [
-        {
-            "resource": row["resource_code"],
-            "kind": row["kind"],
-            "requests": row["requests"],
-            "wait_p50_s": None if row["wait_p50"] is None else round(row["wait_p50"], 1),
-            "wait_p90_s": None if row["wait_p90"] is None else round(row["wait_p90"], 1),
-        }
-        for row in rows
-    ]
+    leases = leases.annotate(resource_key=Concat("resource__kind", Value(":"), "resource__code"))
+    result = {
+        row["resource_key"]: {"requests": row["n"], "wait": {}}
+        for row in leases.values("resource_key").annotate(n=Count("pk"))
+    }
+    wait = Seconds("granted_at", "requested_at")
+    for row in _histogram(leases, "resource_key", wait, WAIT_WIDTH):
+        result[row["resource_key"]]["wait"][str(int(row["bucket"]))] = row["n"]
+    return result
 
 
-def _waits_in_python(leases, figures, wait) -> list[dict]:
-    rows = list(
-        leases.values("resource_code", "kind").annotate(**figures).order_by("resource_code")
-    )
-    values = defaultdict(list)
-    for code, seconds in leases.annotate(_wait=wait).values_list("resource_code", "_wait"):
-        values[code].append(seconds)
-    for row in rows:
-        row["wait_p50"] = percentile(values[row["resource_code"]], 0.5)
-        row["wait_p90"] = percentile(values[row["resource_code"]], 0.9)
-    return rows
-
-
-def failures_by_cause(period: Period) -> list[dict]:
-    """Failed and cancelled deliveries by cause, and operators' alerts by kind."""
+def failures_by_cause(period: Period, *, now: datetime) -> dict[str, int]:
+    """{"what:cause": n}: failed and cancelled deliveries by cause, alerts ("alert") by kind."""
     ended = (
         TaskTransition.objects.filter(
             new__in=[TaskStatus.FAILED, TaskStatus.CANCELLED],
@@ -309,6 +244,16 @@ def failures_by_cause(period: Period) -> list[dict]:
         .values("kind")
         .annotate(n=Count("pk"))
     )
-    rows = [{"what": row["new"], "cause": row["cause"], "count": row["n"]} for row in ended]
-    rows += [{"what": "alert", "cause": row["kind"], "count": row["n"]} for row in alerts]
-    return sorted(rows, key=lambda row: (row["what"], -row["count"], row["cause"]))
+    result = {f"{row['new']}:{row['cause']}": row["n"] for row in ended}
+    return result | {f"alert:{row['kind']}": row["n"] for row in alerts}
+
+
+FIGURES = {
+    "per_day": deliveries_per_day,
+    "per_hour": deliveries_per_hour,
+    "by_priority": turnaround_by_priority,
+    "by_ward": turnaround_by_ward,
+    "utilisation": robot_utilisation,
+    "resource_waits": resource_waits,
+    "failures": failures_by_cause,
+}

@@ -1,6 +1,7 @@
 """The reports page and its CSV exports (managers), and /metrics (operations' Prometheus).
 
-Thin views: the figures come from reports/selectors.py and reports/monitoring.py.
+Thin views: the figures come from reports/rollups.py (over reports/selectors.py) and
+reports/monitoring.py.
 """
 
 import csv
@@ -17,6 +18,7 @@ from prometheus_client import CONTENT_TYPE_LATEST
 from core.access import is_operator, operator_required
 from reports.forms import ReportForm
 from reports.metrics import exposition
+from reports.rollups import period_figures
 from reports.selectors import Period
 from reports.tables import BY_KEY, TABLES, series_label
 
@@ -57,7 +59,10 @@ def reports_page(request):
         return render(request, "reports/reports.html", {"form": form}, status=400)
     period = _period(form)
     now = timezone.now()
-    sections = [_section(table, table.compute(period, now=now)) for table in TABLES]
+    figures = period_figures(period, now=now)  # once, for every table
+    sections = [
+        _section(table, table.compute(period, now=now, figures=figures)) for table in TABLES
+    ]
     context = {"form": form, "period": period, "sections": sections, "query": _query(period)}
     return render(request, "reports/reports.html", context)
 

@@ -14,6 +14,7 @@ from itertools import pairwise
 from robots.mapcache import router_for
 from robots.models import Robot, Site
 from robots.selectors import robot_dock
+from robots.services import robot_publish
 from scheduling.allocator import Stop
 from scheduling.choices import ROUTE_STATUSES
 from scheduling.models import Task
@@ -53,19 +54,24 @@ def robot_battery_check(*, robot: Robot, now: datetime) -> bool:
         return False
     if robot.sent_to_charge:
         if battery >= site.battery_charged:
-            robot.sent_to_charge = False
-            robot.save(update_fields=["sent_to_charge"])
+            _sent_to_charge(robot, False)
             logger.info("%s is charged (%.0f %%): takes tasks again", robot.code, 100 * battery)
         return False
     if battery >= site.battery_threshold or _has_load(robot):
         return False
-    robot.sent_to_charge = True  # first: a plan posted from here on is a charging one
-    robot.save(update_fields=["sent_to_charge"])
+    _sent_to_charge(robot, True)  # first: a plan posted from here on is a charging one
     logger.info("%s is low (%.0f %%): sent to charge", robot.code, 100 * battery)
     note = f"given back: {robot.code} sent to charge"
     if not robot_tasks_give_back(robot=robot, at=now, note=note):
         plan_dock_post(robot=robot, now=now)
     return True
+
+
+def _sent_to_charge(robot: Robot, sent: bool) -> None:
+    """Store it and show it: the fleet page marks a robot sent to charge, live."""
+    robot.sent_to_charge = sent
+    robot.save(update_fields=["sent_to_charge"])
+    robot_publish(robot=robot)
 
 
 def _has_load(robot: Robot) -> bool:

@@ -26,10 +26,12 @@ from django.db.models import Q
 from boards.choices import EventType
 from boards.models import RobotEvent
 from boards.services import AppliedHeartbeat
-from resources.leases import resource_queue, resource_wait_estimate
-from resources.models import Resource
+from core import changes
+from resources.choices import HOLDING_LEASE_STATES
+from resources.leases import resource_wait_estimate
+from resources.models import Lease, Resource
 from robots.alerts import alert_raise
-from robots.mapcache import router_for
+from robots.mapcache import router_for, site_map
 from robots.models import AlertKind, Robot
 from robots.router import Router
 from robots.selectors import waypoint_code
@@ -101,9 +103,10 @@ def deadline_alert(task: Task, message: str, robot: Robot | None = None) -> None
     )
 
 
-def etas_store(tasks: dict[str, Task], times: Iterable[StopTime], now: datetime) -> None:
+def etas_store(tasks: dict[str, Task], times: Iterable[StopTime], now: datetime) -> list[Task]:
     """Each task's drop-off ETA (when its last stop is done) and pick-up ETA (when the robot
-    reaches its first pick-up still to do; none once picked up)."""
+    reaches its first pick-up still to do; none once picked up). Returns the tasks whose ETAs
+    changed."""
     done, pickup = {}, {}
     for time in times:
         done[time.stop.task] = time.done
@@ -112,10 +115,14 @@ def etas_store(tasks: dict[str, Task], times: Iterable[StopTime], now: datetime)
     changed = []
     for code, seconds in done.items():
         task = tasks[code]
+        before = (task.eta, task.pickup_eta)
         task.eta = _at(now, seconds)
         task.pickup_eta = _at(now, pickup[code]) if code in pickup else None
-        changed.append(task)
-    Task.objects.bulk_update(changed, ["eta", "pickup_eta"])
+        if (task.eta, task.pickup_eta) != before:
+            changed.append(task)
+    if changed:  # else no query
+        Task.objects.bulk_update(changed, ["eta", "pickup_eta"])
+    return changed
 
 
 def _at(now: datetime, seconds: float) -> datetime | None:
@@ -139,7 +146,8 @@ def heartbeat_progress(*, applied: AppliedHeartbeat) -> None:
 
 def robot_etas_refresh(*, robot: Robot, now: datetime) -> int:
     """Recompute the ETAs of the tasks on the robot's route along its current plan; returns
-    how many tasks were estimated. Late ones alert operators (task_deadline_check)."""
+    how many tasks were estimated. Late ones alert operators (task_deadline_check); changed ones
+    go to the pages (core.changes ETAS)."""
     held = robot_route(robot=robot, now=now)
     if held.is_empty:
         return 0
@@ -150,7 +158,9 @@ def robot_etas_refresh(*, robot: Robot, now: datetime) -> int:
     first_wait = _first_leg_wait(robot, router, start, going, now) if going else 0.0
     pace, dwell = robot_pace(robot)
     times = stop_times(router, start, stops, pace=pace, dwell=dwell, first_wait=first_wait)
-    etas_store(held.tasks, times, now)
+    changed = etas_store(held.tasks, times, now)
+    if changed:  # the requesters' pages show them at once (ui/live)
+        changes.changed(kind=changes.ETAS, site_id=robot.site_id, subject=changed)
     for code in dict.fromkeys(time.stop.task for time in times):
         task_deadline_check(task=held.tasks[code], robot=robot)
     return len(held.tasks)
@@ -167,17 +177,30 @@ def _plan_order(robot: Robot, remaining: list[Stop]) -> list[Stop]:
 
 def _first_leg_wait(robot: Robot, router: Router, start: str, place: str, now: datetime) -> float:
     """The lease queues' wait on the robot's next leg (from `start` to `place`), for the
-    resources it does not hold."""
+    resources it does not hold.
+
+    One query for the live leases of every resource on the leg (the resources themselves come
+    from the site's cached map): a resource nobody holds or waits for has no wait, which is
+    what resource_wait_estimate would say after its own queries; it is asked only about the
+    busy ones the robot does not hold."""
     codes = router.leg(start, place).resources
     if not codes:
         return 0.0
-    wait = 0.0
-    for resource in Resource.objects.filter(site_id=robot.site_id, code__in=codes):
-        queue = resource_queue(resource=resource)
-        if any(lease.robot_id == robot.pk and lease.holds for lease in queue):
-            continue
-        wait += resource_wait_estimate(resource=resource, now=now)
-    return wait
+    resources = site_map(robot.site).resources
+    ids = [resources[code].id for code in codes if code in resources]
+    live = Lease.objects.live().filter(resource_id__in=ids)
+    busy, held = set(), set()
+    for resource_id, robot_id, state in live.values_list("resource_id", "robot_id", "state"):
+        busy.add(resource_id)
+        if robot_id == robot.pk and state in HOLDING_LEASE_STATES:
+            held.add(resource_id)
+    busy -= held
+    if not busy:
+        return 0.0
+    return sum(
+        resource_wait_estimate(resource=resource, now=now)
+        for resource in Resource.objects.filter(pk__in=busy).order_by("pk")
+    )
 
 
 # --- Learning -----------------------------------------------------------------------------------

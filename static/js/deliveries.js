@@ -163,7 +163,42 @@
       status.textContent = task.status_label;
       cell.replaceChildren(status);
     }
-    Live.rereadSoon("schedule"); // robot, arrival, new rows: from the server
+    // A new status brings robot, arrival, new rows: from the server. An entry in the history
+    // alone (the robot arrived, a note) changes nothing the row shows but its ETA, which
+    // comes by itself ("etas", below): no re-read of every page's schedule for it.
+    if (task.old !== task.status) {
+      Live.rereadSoon("schedule");
+    }
+  });
+  // A robot's progress moved some ETAs: the cells change in place (no re-read).
+  Live.on("etas", (data) => {
+    data.tasks.forEach((task) => {
+      const row = document.querySelector(`#schedule tr[data-task="${CSS.escape(task.code)}"]`);
+      const cell = row && row.querySelector('[data-field="eta"]');
+      if (!cell || row.classList.contains("finished") || cell.dataset.onHold !== undefined) {
+        return;
+      }
+      const nodes = [];
+      if (task.eta) {
+        const time = document.createElement("time");
+        time.dateTime = task.eta;
+        time.textContent = task.eta_label;
+        nodes.push(time);
+      } else {
+        const none = document.createElement("span");
+        none.className = "muted";
+        none.textContent = "—";
+        nodes.push(none);
+      }
+      if (task.lateness) {
+        const late = document.createElement("div");
+        late.className = "late small";
+        late.dataset.field = "lateness";
+        late.textContent = task.lateness;
+        nodes.push(late);
+      }
+      cell.replaceChildren(...nodes);
+    });
   });
   // A robot held, faulty or offline changes what its deliveries' rows say ("Held by an
   // operator", the ETA on hold): re-read them when that, not its position, changes.

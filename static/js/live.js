@@ -273,6 +273,11 @@
         const text = "held after a fault: Resume or send it to its dock";
         nodes.push(document.createTextNode(" "), element("span", "badge badge-error", text));
       }
+      if (r.sent_to_charge) {
+        const badge = element("span", "badge badge-hold", "sent to charge: no tasks until charged");
+        badge.dataset.badge = "charge";
+        nodes.push(document.createTextNode(" "), badge);
+      }
       if (r.errors && r.errors.length) {
         nodes.push(document.createTextNode(" "), element("span", "badge badge-error", r.errors.join(", ")));
       }

@@ -39,6 +39,26 @@ def test_it_changes_a_robots_row_live_when_it_heartbeats(open_page, nurse, opera
     assert page.evaluate("window.notReloaded") is True
 
 
+def test_it_shows_live_that_a_robot_was_sent_to_charge_and_when_it_is_charged(
+    open_page, nurse, robot_http
+):
+    page = open_page(nurse, "/fleet/?floor=2F")
+    page.evaluate("window.notReloaded = true")
+    status = fleet_row(page, "R1").locator('[data-field="status"]')
+    robot_http.heartbeat(1, state={**AT_THE_LAB, "battery": 0.9})
+    expect(status).to_have_text("Moving")
+
+    robot_http.heartbeat(2, state={**AT_THE_LAB, "battery": 0.1})  # below the threshold
+
+    expect(status.locator('[data-badge="charge"]')).to_have_text(
+        "sent to charge: no tasks until charged"
+    )
+    robot_http.heartbeat(3, state={**AT_THE_LAB, "status": "charging", "battery": 0.95})
+    expect(status).to_have_text("Charging")
+    expect(status.locator('[data-badge="charge"]')).to_have_count(0)
+    assert page.evaluate("window.notReloaded") is True
+
+
 def test_it_moves_a_robot_on_the_map_and_off_it_to_another_floor(open_page, nurse, robot_http):
     page = open_page(nurse, "/fleet/?floor=2F")
     marker = page.locator('#map-robots [data-robot="R1"]')

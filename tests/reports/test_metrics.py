@@ -107,18 +107,20 @@ def test_it_shows_robots_by_presence_and_status_and_who_is_offline_with_load(sit
 
 def test_it_shows_tasks_by_status_and_the_ones_past_due(site):
     now = timezone.now()
-    task_request(site)  # due, just requested
+    task_request(site)  # due, just requested: due by the site's routine due time
     late = task_request(site, priority="urgent")
-    Task.objects.filter(pk=late.pk).update(requested_time=now - timedelta(minutes=16))
-    old_routine = task_request(site)
-    Task.objects.filter(pk=old_routine.pk).update(requested_time=now - timedelta(minutes=59))
+    Task.objects.filter(pk=late.pk).update(due_at=now - timedelta(minutes=1))
+    routine = task_request(site)
+    Task.objects.filter(pk=routine.pk).update(due_at=now + timedelta(minutes=1))
+    # From before deadlines existed: no due time, so never past due.
+    old = task_request(site)
+    Task.objects.filter(pk=old.pk).update(due_at=None, requested_time=now - timedelta(days=1))
 
     text = scrape(now)
 
-    assert value(text, "hd_tasks", site=site.code, status="due") == 3
+    assert value(text, "hd_tasks", site=site.code, status="due") == 4
     assert value(text, "hd_tasks_past_due", site=site.code, priority="urgent") == 1
-    # A request's default priority is "routine" (issue 13; "normal" is its old name), which
-    # DELIVERY_DUE_MINUTES gives the "*" due time: 60 minutes.
+    # Each task's own due time (due_at), not a due time per priority.
     assert value(text, "hd_tasks_past_due", site=site.code, priority="routine") == 0
     later = scrape(now + timedelta(minutes=2))
     assert value(later, "hd_tasks_past_due", site=site.code, priority="routine") == 1

@@ -36,6 +36,25 @@ def test_a_low_robot_with_nothing_on_board_is_sent_to_charge_and_back_to_work_wh
     assert waiting.robot == r1
 
 
+def test_the_pages_hear_when_a_robot_is_sent_to_charge_and_when_it_is_charged(
+    r1, site, monkeypatch, django_capture_on_commit_callbacks
+):
+    sent = []
+    monkeypatch.setattr("ui.live.publish.group_send", lambda group, message: sent.append(message))
+    beater = Beater(r1)
+
+    def robot_events(**state):
+        sent.clear()
+        with django_capture_on_commit_callbacks(execute=True):
+            beater.beat(**state)
+        return [m["data"]["sent_to_charge"] for m in sent if m["kind"] == "robot"]
+
+    assert robot_events(battery=0.9) == [False]
+    assert robot_events(battery=0.15)[-1] is True
+    assert robot_events(battery=0.5, status="charging")[-1:] in ([], [True])
+    assert robot_events(battery=0.8, status="charging")[-1] is False
+
+
 def test_a_low_robot_gives_back_what_it_has_not_picked_up(r1, r2, site):
     task = request(site)
     assert task_allocate(task_id=task.pk)

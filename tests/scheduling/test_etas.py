@@ -6,6 +6,7 @@ from datetime import UTC, datetime, timedelta
 
 import pytest
 from django.db import transaction
+from django.utils import timezone
 
 from boards.serializers import HeartbeatSerializer
 from boards.services import heartbeat_apply
@@ -119,3 +120,36 @@ def test_the_eta_counts_the_lease_queue_on_the_robots_next_leg(r1, r2, site, to_
     to_lab.refresh_from_db()
     # Loaded at the pharmacy, then the wait for the elevator, then on to the laboratory.
     assert to_lab.eta == now + seconds(DWELL + wait + PHARMACY_TO_LAB + DWELL)
+
+
+def test_new_etas_go_to_the_pages_once_the_heartbeat_commits(
+    r1, site, to_lab, monkeypatch, django_capture_on_commit_callbacks
+):
+    sent = []
+    monkeypatch.setattr("ui.live.publish.group_send", lambda group, message: sent.append(message))
+    before = to_lab.eta
+
+    with django_capture_on_commit_callbacks() as callbacks:
+        arrived = event("arrived", to_lab.code, 0, at=T0)
+        beat(r1, now=T0 + seconds(30), at="1F-PHARM", events=[arrived])
+        assert not [m for m in sent if m["kind"] == "etas"]  # not before the commit
+    for callback in callbacks:
+        callback()
+
+    to_lab.refresh_from_db()
+    assert to_lab.eta != before
+    [message] = [m for m in sent if m["kind"] == "etas"]
+    assert message["data"]["tasks"] == [
+        {
+            "code": to_lab.code,
+            "eta": timezone.localtime(to_lab.eta).isoformat(),
+            "eta_label": f"{timezone.localtime(to_lab.eta):%H:%M}",
+            "pickup_eta": timezone.localtime(to_lab.pickup_eta).isoformat(),  # there now
+            "lateness": "",
+        }
+    ]
+    # The same progress again changes no ETA: nothing is sent.
+    sent.clear()
+    with django_capture_on_commit_callbacks(execute=True):
+        beat(r1, now=T0 + seconds(30), at="1F-PHARM", events=[arrived])
+    assert not [m for m in sent if m["kind"] == "etas"]

@@ -6,6 +6,7 @@ from boards.models import RobotEvent
 from robots.models import Alert
 from scheduling.models import Task, TaskTransition
 from scheduling.services import task_allocate
+from tests import factories
 from tests.scheduling.conftest import Beater, event, pending_plans, plans, request, route, status
 
 AT_DOCK = {"floor": "1F", "waypoint": "1F-DOCK-1"}
@@ -174,7 +175,7 @@ def test_a_robot_whose_last_task_fails_goes_to_its_dock(r1, site, enqueued):
     assert len(pending_plans(r1)) == 1
 
 
-def test_a_heartbeat_with_a_task_event_needs_seventeen_more_queries(
+def test_a_heartbeat_with_a_task_event_needs_eleven_more_queries(
     r1, site, django_assert_num_queries
 ):
     task = request(site)
@@ -185,11 +186,29 @@ def test_a_heartbeat_with_a_task_event_needs_seventeen_more_queries(
     # The heartbeat's own 7 (tests/boards/test_heartbeat_queries.py, with one event) + read the
     # task and its stops, mark the stop done, move the task, record it, find the site's webhook
     # subscriptions (none here; webhooks/services.py) (6) + the robot's progress
-    # (scheduling.services.etas, 11): look for its arrival there (its dwell), read its route and
-    # its plan, the elevator and the door on its next leg (1) and their lease queues and typical
-    # holds (3 each), store the ETAs. A heartbeat without task events or plan acks needs none
-    # more.
-    with django_assert_num_queries(24):
+    # (scheduling.services.etas, 5): look for its arrival there (its dwell), read its route and
+    # its plan, the live leases of the elevator and the door on its next leg (both free: no
+    # wait to estimate), store the ETAs. A heartbeat without task events or plan acks needs
+    # none more.
+    with django_assert_num_queries(18):
         beater.beat(events=[event("loaded", task.code, 0)])
     with django_assert_num_queries(7):
         beater.beat(events=[event("arrived")])
+
+
+def test_a_busy_resource_on_the_next_leg_costs_three_queries_more(
+    r1, r2, site, django_assert_num_queries
+):
+    task = request(site)
+    task_allocate(task_id=task.pk)
+    holder, other = (r1, r2) if Task.objects.get(pk=task.pk).robot_id == r1.pk else (r2, r1)
+    beater = Beater(holder)
+    beater.ack_all(beater.beat())
+    elevator = site.resources.get(code="ELEV")
+    factories.lease_acquire(robot=other, resource=elevator, request_id="q-other", to_floor="3F")
+    factories.lease_enter(robot=other, resource=elevator)
+
+    # The 18 above + the busy elevator read, and its queue and typical hold for the wait
+    # (resources.leases.resource_wait_estimate); the free door still costs nothing.
+    with django_assert_num_queries(21):
+        beater.beat(events=[event("loaded", task.code, 0)])

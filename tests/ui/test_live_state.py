@@ -26,6 +26,7 @@ ROBOT_KEYS = {
     "errors",
     "paused_by_operator",
     "held_after_fault",
+    "sent_to_charge",
     "last_seen_at",
 }
 

@@ -5,8 +5,11 @@ path. The pages' re-read after a reconnect (ui/live/state.py) returns robots in 
 so one piece of page code (static/js/live.js) applies both.
 """
 
+from django.utils import timezone
+
 from robots.choices import Presence, RobotStatus
 from robots.mapcache import floor_code_by_id, site_map, waypoint_by_id
+from scheduling.deadlines import lateness_note
 
 
 def robot_payload(robot) -> dict:
@@ -35,6 +38,7 @@ def robot_payload(robot) -> dict:
         "errors": list(robot.errors or []),
         "paused_by_operator": robot.paused_by_operator,
         "held_after_fault": robot.fault_at is not None,
+        "sent_to_charge": robot.sent_to_charge,
         "last_seen_at": robot.last_seen_at.isoformat() if robot.last_seen_at else None,
     }
 
@@ -51,6 +55,26 @@ def task_payload(entry) -> dict:
         "robot": entry.robot.code if entry.robot else None,
         "at": entry.at.isoformat(),
     }
+
+
+def etas_payload(tasks) -> dict:
+    """New ETAs, as the deliveries page's ETA cell shows them (in the site's time zone)."""
+    return {
+        "tasks": [
+            {
+                "code": task.code,
+                "eta": _local(task.eta),
+                "eta_label": f"{timezone.localtime(task.eta):%H:%M}" if task.eta else "",
+                "pickup_eta": _local(task.pickup_eta),
+                "lateness": lateness_note(eta=task.eta, due_at=task.due_at),
+            }
+            for task in tasks
+        ]
+    }
+
+
+def _local(at) -> str | None:
+    return timezone.localtime(at).isoformat() if at else None
 
 
 def lease_payload(lease, *, resource) -> dict:

@@ -24,6 +24,7 @@ PAYLOADS = {
     changes.LEASE: payloads.lease_payload,
     changes.ALERT: payloads.alert_payload,
     changes.ALERT_ACKNOWLEDGED: payloads.alert_acknowledged_payload,
+    changes.ETAS: payloads.etas_payload,
 }
 
 
