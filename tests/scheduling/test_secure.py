@@ -16,10 +16,12 @@ from robotsim.client import pin_check
 from scheduling.models import CustodyEntry, Task
 from scheduling.pins import pin_matches
 from scheduling.services import task_allocate
+from scheduling.services.allocation import NO_SECURE_ROUTE
 from tests import factories
-from tests.scheduling.conftest import Beater, event, plans, request, robot_ready, status
+from tests.scheduling.conftest import Beater, event, plans, request, robot_ready, route, status
 
 LOCKING = [{"code": "A", "lockable": True}, {"code": "B"}]
+PICK_DROP = ("pickup", "dropoff")
 
 
 @pytest.fixture
@@ -102,6 +104,62 @@ def test_it_goes_only_to_a_robot_with_a_lockable_compartment(r1, site):
     assert task_allocate(task_id=task.pk)
     task.refresh_from_db()
     assert task.robot == far  # though R1 is as near
+
+
+def _secure_on_board_at_most(plan: dict) -> int:
+    """The most secure deliveries a plan has on board at once (its tasks all secure here)."""
+    on_board = most = 0
+    for task, _, action, _ in route(plan):
+        if not task:
+            continue
+        on_board += 1 if action == "pickup" else -1
+        most = max(most, on_board)
+    return most
+
+
+def test_one_lockable_compartment_takes_one_secure_delivery_at_a_time(site):
+    # R2 has two compartments, one lockable, and stands at the pharmacy where both are picked
+    # up: counting items, it would load both at once.
+    at_pharmacy = factories.robot_create(site, "R2", compartments=LOCKING)
+    robot = robot_ready(at_pharmacy, at="1F-PHARM")
+    first = request(site, secure=True, dropoffs=("3F-WARD",))
+    second = request(site, secure=True, dropoffs=("2F-LAB",))
+    assert task_allocate(task_id=first.pk)
+    assert task_allocate(task_id=second.pk)
+
+    *_, plan = plans(Beater(robot).beat())
+
+    stops = [(task, action) for task, _, action, _ in route(plan) if task]
+    assert sorted(stops) == sorted((t.code, a) for t in (first, second) for a in PICK_DROP)
+    assert _secure_on_board_at_most(plan) == 1  # one delivered before the other is loaded
+
+
+def test_a_second_secure_delivery_goes_to_another_robot_with_its_compartment_free(site):
+    carrying = robot_ready(factories.robot_create(site, "R2", compartments=LOCKING), at="1F-PHARM")
+    first = request(site, secure=True, dropoffs=("3F-WARD",))
+    assert task_allocate(task_id=first.pk)
+    Beater(carrying).beat(events=[event("loaded", first.code, 0, compartment="A")])
+    other = factories.robot_create(site, "R3", compartments=LOCKING)
+    other = robot_ready(other, at="1F-DOCK-1")
+
+    second = request(site, secure=True, dropoffs=("3F-WARD",))
+    assert task_allocate(task_id=second.pk)
+
+    second.refresh_from_db()
+    assert second.robot == other  # though R2 stands at its pick-up going the same way
+
+
+def test_a_secure_delivery_waits_for_as_many_lockable_compartments_as_its_items(site):
+    robot_ready(factories.robot_create(site, "R2", compartments=LOCKING), at="1F-PHARM")
+    two_wards = request(site, secure=True, dropoffs=("3F-WARD", "2F-LAB"))  # two items
+
+    assert not task_allocate(task_id=two_wards.pk)
+
+    two_wards.refresh_from_db()
+    assert two_wards.waiting_reason == NO_SECURE_ROUTE
+    both = [{"code": "A", "lockable": True}, {"code": "B", "lockable": True}]
+    robot_ready(factories.robot_create(site, "R3", compartments=both))
+    assert task_allocate(task_id=two_wards.pk)
 
 
 def test_the_plan_lets_the_robot_check_the_pin_offline(locking, site):
