@@ -230,6 +230,8 @@ def task_disruption(task: Task, given_back: list[TaskTransition]) -> tuple[str, 
         return "Held by an operator", True
     if robot is not None and robot.presence == Presence.OFFLINE:
         return f"{robot.code} is offline: operators are alerted", True
+    if task.unattended_at is not None:
+        return "Nobody unloaded it at the drop-off: on its way back, not delivered", False
     if not given_back:
         return "", False
     why = given_back[-1].note or "Taken from its robot"
