@@ -379,14 +379,20 @@ class _Problem:
     needs: list[int]  # per stop, the bitmask of stops that must come before it
     changes: list[int]  # load changes, packed (_packing)
     load: int  # packed
-    fits: range | _Fits  # the packed loads within capacity
+    top: int  # the largest packed load within capacity
+    fits: _Fits | None  # with secure items: the packed loads within capacity, else None
+
+    def holds(self, load: int) -> bool:
+        """Whether a packed load is within capacity (the hot loops inline this)."""
+        return _holds(load, self.top, self.fits)
 
     def first(self, count: int) -> _Problem:
         """The same route with only its first `count` stops."""
         times = [row[: count + 1] for row in self.times[: count + 1]]
         changes = self.changes[:count]
         stops, needs = self.stops[:count], self.needs[:count]
-        return _Problem(self.travel, stops, times, needs, changes, self.load, self.fits)
+        load, top, fits = self.load, self.top, self.fits
+        return _Problem(self.travel, stops, times, needs, changes, load, top, fits)
 
     @cached_property
     def into(self) -> list[list[float]]:
@@ -416,13 +422,15 @@ def _problem(robot: RobotRoute, tasks: Sequence[TaskStops], travel: _Travel) -> 
         needs += [0] * len(task.pickups) + [pickups] * len(task.dropoffs)
     places = [robot.start, *(stop.place for stop in stops)]
     times = [[row[place] for place in places] for row in map(travel.__getitem__, places)]
-    load, change, fits = _packing(robot, stops)
-    return _Problem(travel, stops, times, needs, [change(s) for s in stops], load, fits)
+    load, change, top, fits = _packing(robot, stops)
+    changes = [stop.load_change for stop in stops] if fits is None else list(map(change, stops))
+    return _Problem(travel, stops, times, needs, changes, load, top, fits)
 
 
 # Two capacities, one number: a route's load packs the items on board and, SECURE times over,
 # the secure ones among them (each needing a lockable compartment), so the searches below carry
-# one integer per state and check it by one membership test. Item counts stay far below SECURE.
+# one integer per state. Item counts stay far below SECURE. Without secure items the load is
+# the item count and the check the plain comparison with the capacity it always was.
 SECURE = 1 << 20
 
 
@@ -440,14 +448,17 @@ class _Fits:
 
 
 def _packing(robot: RobotRoute, stops: Sequence[Stop]):
-    """(the packed load on board, the packed change of a stop, the packed loads that fit).
-
-    Without secure stops or secure items on board, the load is the item count as before.
-    """
+    """(the packed load on board, the packed change of a stop, the largest packed load that
+    fits, the packed loads that fit or None without secure stops or items on board)."""
     if not robot.secure_load and not any(stop.secure for stop in stops):
-        return robot.load, _item_change, range(robot.capacity + 1)
+        return robot.load, _item_change, robot.capacity, None
     load = robot.load + robot.secure_load * SECURE
-    return load, _packed_change, _Fits(robot.capacity, robot.lockable)
+    top = robot.capacity + robot.lockable * SECURE
+    return load, _packed_change, top, _Fits(robot.capacity, robot.lockable)
+
+
+def _holds(load: int, top: int, fits: _Fits | None) -> bool:
+    return 0 <= load <= top and (fits is None or load in fits)
 
 
 def _item_change(stop: Stop) -> int:
@@ -470,7 +481,7 @@ def _held_karp(problem: _Problem, limit: float, lower: list[float], tail=None):
     on the travel still to come exceeds the limit: the sum of `lower` over the stops left, plus
     tail(done, last) when given.
     """
-    if problem.load not in problem.fits or math.inf in lower:
+    if not problem.holds(problem.load) or math.inf in lower:
         return None
     states = {0: (problem.load, sum(lower), problem.first_ready())}
     layers = [{0: {0: 0.0}}]
@@ -499,13 +510,13 @@ def _next_layer(problem, layer, states, lower, bound, tail):
 
     states[done] = (load on board, sum of `lower` over the stops left, stops that may come next).
     """
-    into, changes, fits = problem.into, problem.changes, problem.fits
+    into, changes, top, fits = problem.into, problem.changes, problem.top, problem.fits
     following: dict[int, dict[int, float]] = {}
     for done, ends in layer.items():
         load, rest, ready = states[done]
         for j in ready:
             new_load = load + changes[j]
-            if new_load not in fits:
+            if not 0 <= new_load <= top or fits and new_load not in fits:
                 continue
             column, cost = into[j], math.inf
             for last, so_far in ends.items():
@@ -553,7 +564,7 @@ class _Finishing:
         self.states: dict[int, tuple[int, list[int]]] = {}  # done -> (load, stops that may come)
         self.choices: dict[int, list[tuple[int, float]]] = {}  # done -> [(next point, to finish)]
         self.finish: dict[int, dict[int, float]] = {}  # done -> {last point: to finish}
-        if problem.load in problem.fits:
+        if problem.holds(problem.load):
             self._sweep(self._reachable())
 
     @property
@@ -590,7 +601,7 @@ class _Finishing:
     def _reachable(self) -> list[dict[int, set[int]]]:
         """Per layer, the sets of stops that can be done first, and the stops they can end at."""
         problem, states = self.problem, self.states
-        changes, fits = problem.changes, problem.fits
+        changes, top, fits = problem.changes, problem.top, problem.fits
         states[0] = (problem.load, problem.first_ready())
         layers = [{0: {0}}]
         for _ in problem.stops:
@@ -599,7 +610,7 @@ class _Finishing:
                 load, ready = states[done]
                 for j in ready:
                     new_load = load + changes[j]
-                    if new_load not in fits:
+                    if not 0 <= new_load <= top or fits and new_load not in fits:
                         continue
                     key = done | 1 << j
                     lasts = following.get(key)
@@ -614,7 +625,7 @@ class _Finishing:
     def _sweep(self, layers: list[dict[int, set[int]]]) -> None:
         """Fill `finish` from the last layer back. Hot, so written with plain loops."""
         problem, finish = self.problem, self.finish
-        times, changes, fits = problem.times, problem.changes, problem.fits
+        times, changes, top, fits = problem.times, problem.changes, problem.top, problem.fits
         for lasts in layers[-1].values():
             finish[self.full] = dict.fromkeys(lasts, 0.0)
         for layer in reversed(layers[:-1]):
@@ -623,7 +634,10 @@ class _Finishing:
                 choices = []
                 for j in ready:
                     after = finish.get(done | 1 << j)
-                    if after is not None and load + changes[j] in fits:
+                    if after is None:
+                        continue
+                    new_load = load + changes[j]
+                    if 0 <= new_load <= top and (fits is None or new_load in fits):
                         choices.append((j + 1, after[j + 1]))
                 if not choices:
                     continue
@@ -678,7 +692,7 @@ class _Enumeration:
         self.leaves = 0
 
     def run(self) -> tuple[float, list[int]] | None:
-        if self.problem.load in self.problem.fits:
+        if self.problem.holds(self.problem.load):
             self._visit(0, 0, self.problem.load, 0.0, [])
         return self.best
 
@@ -689,7 +703,7 @@ class _Enumeration:
         problem = self.problem
         for j, need in enumerate(problem.needs):
             new_load = load + problem.changes[j]
-            if done >> j & 1 or need & ~done or new_load not in problem.fits:
+            if done >> j & 1 or need & ~done or not problem.holds(new_load):
                 continue
             order.append(j)
             self._visit(j + 1, done | 1 << j, new_load, cost + problem.times[point][j + 1], order)
@@ -850,8 +864,8 @@ def _is_feasible(robot: RobotRoute, stops: Sequence[Stop]) -> bool:
     """Every drop-off after all its task's pick-ups, load within capacity throughout (and
     secure items within the lockable compartments)."""
     waiting = Counter(stop.task for stop in stops if stop.action == PICKUP)
-    load, change, fits = _packing(robot, stops)
-    if load not in fits:
+    load, change, top, fits = _packing(robot, stops)
+    if not _holds(load, top, fits):
         return False
     for stop in stops:
         if stop.action == PICKUP:
@@ -859,6 +873,6 @@ def _is_feasible(robot: RobotRoute, stops: Sequence[Stop]) -> bool:
         elif waiting[stop.task]:
             return False
         load += change(stop)
-        if load not in fits:
+        if not _holds(load, top, fits):
             return False
     return True
