@@ -112,11 +112,14 @@ def unattended_sweep(*, now: datetime | None = None) -> int:
 @transaction.atomic
 def task_move_on(*, robot_id: int, stop_id: int, waited: timedelta, now: datetime) -> bool:
     """The robot leaves the drop-off with the items (secure ones still locked) for the site's
-    return place; False if the stop was done, or the task moved, meanwhile."""
+    return place; False if the stop was done, or the task moved, meanwhile. A task already
+    going back (cancelled after pick-up, or moved on before) stays: where it waits is where
+    it would be sent, and operators were alerted."""
     robot = robot_lock(robot_id)
     stop = (
         TaskStop.objects.remaining()
         .filter(pk=stop_id, task__robot=robot, task__status=TaskStatus.PICKED_UP)
+        .filter(task__return_trip=False)
         .select_related("task")
         .first()
     )

@@ -16,6 +16,7 @@ from scheduling.models import CustodyEntry
 from scheduling.selectors import schedule_for_site
 from scheduling.services import (
     task_allocate,
+    task_cancel,
     task_move_on,
     unattended_sweep,
     unload_timeout_sweep,
@@ -145,6 +146,22 @@ def test_a_drop_off_unloaded_meanwhile_is_not_moved_on(locking, site):
     assert not task_move_on(robot_id=locking.pk, stop_id=stop.pk, waited=later - arrived, now=later)
     assert status(task) == "delivered"
     assert not CustodyEntry.objects.filter(kind="moved_on").exists()
+
+
+def test_a_task_already_going_back_is_not_moved_on_again(locking, site, nurse):
+    task = request(site, dropoffs=("3F-WARD",), secure=True, user=nurse)
+    assert task_allocate(task_id=task.pk)
+    beater = Beater(locking)
+    beater.beat(events=[event("loaded", task.code, 0, compartment="A")])
+    task_cancel(task=task, by=nurse)  # back to the pharmacy: its stop 2
+    at_pharmacy = {"floor": "1F", "waypoint": "1F-PHARM", "status": "waiting_unload"}
+    beater.beat(events=[event("arrived", task.code, 2)], **at_pharmacy)
+    arrived = RobotEvent.objects.get(type="arrived").received_at
+
+    assert unattended_sweep(now=arrived + timedelta(hours=2)) == 0
+
+    assert list(task.stops.remaining().values_list("index", "waypoint__code")) == [(2, "1F-PHARM")]
+    assert unload_timeout_sweep(now=arrived + timedelta(hours=2)) == 1  # operators alerted
 
 
 def test_the_site_file_sets_the_policy_and_refuses_a_bad_one(db):
