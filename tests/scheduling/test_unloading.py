@@ -10,7 +10,8 @@ from django.test import Client
 from django.utils import timezone
 
 from boards.models import RobotEvent
-from robots.models import Alert, Site
+from robots.models import Alert, Site, SiteMembership
+from robots.services import membership_badge_set
 from robots.sitefile import SiteFileInvalid, site_load
 from scheduling.models import CustodyEntry
 from scheduling.selectors import schedule_for_site
@@ -85,6 +86,10 @@ def locking(site):
 def test_past_the_unattended_timeout_the_robot_brings_the_items_back_locked(
     locking, site, nurse, operator
 ):
+    pharmacist = SiteMembership.objects.get(user=nurse, site=site)  # of the sending unit
+    pharmacist.unit = site.waypoints.get(code="1F-PHARM")
+    pharmacist.save(update_fields=["unit"])
+    membership_badge_set(membership=pharmacist, badge="04:A2:19:C3:7F:5E:80")
     task, beater, arrived = _waiting_at_the_ward(locking, site, user=nurse)
     moves_on = timedelta(seconds=site.unattended_timeout)
     assert unload_timeout_sweep(now=arrived + moves_on - timedelta(seconds=1)) == 1  # the alert
@@ -97,7 +102,8 @@ def test_past_the_unattended_timeout_the_robot_brings_the_items_back_locked(
     assert (task.status, task.return_trip, task.unattended_at) == ("picked_up", True, ANY)
     [plan] = plans(beater.beat(floor="3F", waypoint="3F-WARD", status="waiting_unload"))[-1:]
     assert route(plan) == [(task.code, 2, "dropoff", "1F-PHARM")]  # back to the sender
-    assert plan["tasks"][task.code]["secure"]  # still opens only for its PIN
+    secure = plan["tasks"][task.code]["secure"]  # still opens only for its PIN...
+    assert [badge["holder"] for badge in secure["badges"]] == ["kim"]  # ...or the sender's badges
     moved = CustodyEntry.objects.get(kind="moved_on")
     assert (moved.station, moved.compartment, moved.robot) == ("Ward 3", "A", locking)
     words = "Nobody unloaded it at Ward 3 in 30 min: R2 moved on, taking it to Pharmacy, locked in"
