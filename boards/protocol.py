@@ -60,13 +60,22 @@ SECURE_MAX_ATTEMPTS = 3
 
 
 def plan_task(
-    *, contents: str, sender: str, receiver: str, priority: str, pin: dict | None = None
+    *,
+    contents: str,
+    sender: str,
+    receiver: str,
+    priority: str,
+    pin: dict | None = None,
+    badges: list[dict] = (),
 ) -> dict:
     """What a plan says about each of its tasks (`tasks`, by task code). A secure delivery
-    (an addition) says how to check its PIN offline: `pin` is its salted slow hash."""
+    (an addition) says how to check its PIN offline: `pin` is its salted slow hash; and, a
+    further addition, `badges`: the salted slow hashes of the badges of the receiving unit's
+    users, each with the `holder` to report as `opened_by` (robots/badges.py)."""
     entry = {"contents": contents, "sender": sender, "receiver": receiver, "priority": priority}
     if pin is not None:
-        entry["secure"] = {"pin": pin, "max_attempts": SECURE_MAX_ATTEMPTS}
+        secure = {"pin": pin, "max_attempts": SECURE_MAX_ATTEMPTS, "badges": list(badges)}
+        entry["secure"] = secure
     return entry
 
 

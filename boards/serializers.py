@@ -164,9 +164,17 @@ class PinHashSerializer(serializers.Serializer):
     hash = serializers.CharField(help_text="hex: PBKDF2-HMAC-SHA256(PIN, salt, iterations)")
 
 
+class BadgeHashSerializer(PinHashSerializer):
+    holder = serializers.CharField(help_text="whose badge: report it as opened_by")
+    hash = serializers.CharField(help_text="hex: PBKDF2-HMAC-SHA256(badge id, salt, iterations)")
+
+
 class PlanSecureSerializer(serializers.Serializer):
     pin = PinHashSerializer()
     max_attempts = serializers.IntegerField(min_value=1, help_text="wrong PINs, then locked")
+    badges = BadgeHashSerializer(
+        many=True, help_text="the receiving unit's users' badges, each opens it too"
+    )
 
 
 class PlanTaskSerializer(serializers.Serializer):

@@ -5,6 +5,7 @@ which validate the whole map; the admin shows it and lets operators fix names an
 settings, never the geometry, which would bypass that validation and the routing caches.
 """
 
+from django import forms
 from django.contrib import admin, messages
 from django.db.models import F
 
@@ -21,7 +22,7 @@ from robots.models import (
     SiteMembership,
     Waypoint,
 )
-from robots.services import robot_token_issue
+from robots.services import membership_badge_set, robot_token_issue
 
 
 class ReadOnlyInline(admin.TabularInline):
@@ -211,11 +212,41 @@ class AlertAdmin(admin.ModelAdmin):
         self.message_user(request, f"Acknowledged {count} alert(s).")
 
 
+class SiteMembershipForm(forms.ModelForm):
+    """The badge is typed (or scanned) here and only its salted hash is kept."""
+
+    badge = forms.CharField(
+        required=False,
+        max_length=128,
+        strip=True,
+        widget=forms.PasswordInput(render_value=False),
+        help_text="scan or type the badge id to set it (only its salted hash is kept); "
+        "left empty, the current one stays",
+    )
+    forget_badge = forms.BooleanField(required=False, help_text="the user has no badge any more")
+
+    class Meta:
+        model = SiteMembership
+        fields = ["user", "site", "unit"]
+
+
 @admin.register(SiteMembership)
 class SiteMembershipAdmin(admin.ModelAdmin):
-    """Who works at which site (staff users and superusers see every site without one)."""
+    """Who works at which site (staff users and superusers see every site without one), in
+    which unit, and their badge, for secure deliveries to that unit."""
 
-    list_display = ["user", "site"]
+    form = SiteMembershipForm
+    list_display = ["user", "site", "unit", "has_badge"]
     list_filter = ["site"]
     search_fields = ["user__username"]
     autocomplete_fields = ["user"]
+
+    @admin.display(boolean=True, description="badge")
+    def has_badge(self, membership) -> bool:
+        return bool(membership.badge_hash)
+
+    def save_model(self, request, obj, form, change):
+        super().save_model(request, obj, form, change)
+        badge = form.cleaned_data.get("badge")
+        if badge or form.cleaned_data.get("forget_badge"):
+            membership_badge_set(membership=obj, badge=badge or "")

@@ -5,7 +5,7 @@ from django.db.models import QuerySet
 
 from robots.choices import Presence, RobotStatus
 from robots.mapcache import waypoint_by_id
-from robots.models import Alert, Robot, Site
+from robots.models import Alert, Robot, Site, SiteMembership
 
 # Robots reporting these statuses are offered no new tasks.
 UNAVAILABLE_STATUSES = [RobotStatus.ERROR, RobotStatus.PAUSED]
@@ -73,3 +73,15 @@ def fleet_snapshot(*, site: Site) -> list[Robot]:
     for robot in robots:
         robot.site = site
     return robots
+
+
+def unit_badges(*, station_ids) -> list[dict]:
+    """What a robot needs to recognise offline the badges of the users of these stations'
+    units (robots/badges.py): one hash each, with the username it reports as `opened_by`."""
+    members = (
+        SiteMembership.objects.filter(unit_id__in=list(station_ids))
+        .exclude(badge_hash="")
+        .select_related("user")
+        .order_by("user__username")
+    )
+    return [member.badge.wire(member.user.get_username()) for member in members]

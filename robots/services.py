@@ -15,9 +15,18 @@ from django.utils import timezone
 
 from core import changes
 from core.tokens import token_new
+from robots.badges import badge_hash
 from robots.choices import Presence
 from robots.hooks import presence_changed, token_issued
-from robots.models import PresenceChange, Robot, RobotActivity, RobotBoot, Site, robot_activity
+from robots.models import (
+    PresenceChange,
+    Robot,
+    RobotActivity,
+    RobotBoot,
+    Site,
+    SiteMembership,
+    robot_activity,
+)
 from robots.selectors import available_robots
 
 # A robot whose visible state does not change is still reported this often (on its next
@@ -177,3 +186,13 @@ def _activity_record(robot: Robot, *, previous: str, at: datetime) -> None:
     """Keep the activity history (reports' utilisation): one insert, only when it changed."""
     if robot_activity(robot) != previous:
         RobotActivity.objects.create(robot=robot, at=at, activity=robot_activity(robot))
+
+
+def membership_badge_set(*, membership: SiteMembership, badge: str) -> None:
+    """Keep the salted slow hash of the user's badge id (never the id), or forget it ("")."""
+    badge = badge.strip()
+    hashed = badge_hash(badge) if badge else None
+    membership.badge_salt = hashed.salt if hashed else ""
+    membership.badge_iterations = hashed.iterations if hashed else 0
+    membership.badge_hash = hashed.hash if hashed else ""
+    membership.save(update_fields=["badge_salt", "badge_iterations", "badge_hash"])

@@ -20,6 +20,7 @@ from django.utils import timezone
 from robots.choices import ResourceKind, WaypointKind
 from robots.models import Edge, Floor, Resource, ResourceWaypoint, Robot, Site, Waypoint
 from robots.models.fleet import ROBOT_CODE
+from robots.models.map import UNATTENDED_TO_PICKUP
 from robots.router import (
     DOCK,
     ELEVATOR,
@@ -143,6 +144,8 @@ SITE_FIELDS = {
     "grant_timeout": POSITIVE,
     "lease_hard_limit": POSITIVE,
     "unload_timeout": POSITIVE,
+    "unattended_timeout": POSITIVE,
+    "unattended_return": _Field(str, max_length=64, pattern=CODE_PATTERN),
     "battery_threshold": _Field(NUMBER, minimum=0, maximum=1),
     "stat_due_minutes": POSITIVE,
     "urgent_due_minutes": POSITIVE,
@@ -304,7 +307,22 @@ class _Validation:
         self._unused_waiting_waypoints()
         self._robots(site.get("robots", []))
         self._unreachable_places()
+        self._unattended(site)
         return self.problems
+
+    def _unattended(self, site: dict) -> None:
+        """A robot nobody unloads moves on after the unload alert, to a station or back."""
+        alert = site.get("unload_timeout", _default(Site, "unload_timeout"))
+        moves_on = site.get("unattended_timeout", _default(Site, "unattended_timeout"))
+        if (
+            isinstance(alert, int | float)
+            and isinstance(moves_on, int | float)
+            and moves_on <= alert
+        ):
+            self._problem("unattended_timeout", f"must be longer than unload_timeout ({alert})")
+        to = site.get("unattended_return", UNATTENDED_TO_PICKUP)
+        if to != UNATTENDED_TO_PICKUP and getattr(self.waypoints.get(to), "kind", "") != STATION:
+            self._problem("unattended_return", f"'{UNATTENDED_TO_PICKUP}' or a station's code")
 
     def _problem(self, where: str, what: str) -> None:
         self.problems.append(f"{where}: {what}" if where else what)
@@ -656,6 +674,8 @@ SITE_SETTINGS = [
     "grant_timeout",
     "lease_hard_limit",
     "unload_timeout",
+    "unattended_timeout",
+    "unattended_return",
     "battery_threshold",
     "stat_due_minutes",
     "urgent_due_minutes",

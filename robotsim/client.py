@@ -15,7 +15,9 @@ side:
 * with the optional push channel (listen_for_wakes) it heartbeats at once when woken, and
   once after every (re)connection, for whatever was posted while the socket was down;
 * a secure delivery's PIN is checked on the robot, without the network (pin_check, with the
-  plan task's `secure`), so a dead zone at the station never keeps a recipient waiting.
+  plan task's `secure`), so a dead zone at the station never keeps a recipient waiting; so is
+  the badge of a user of the receiving unit (badge_check: whose it is, to report as
+  `opened_by`).
 
 Usage::
 
@@ -55,6 +57,20 @@ def pin_check(pin: str, secure: dict) -> bool:
     salt = bytes.fromhex(wire["salt"])
     tried = hashlib.pbkdf2_hmac("sha256", pin.encode(), salt, int(wire["iterations"]))
     return hmac.compare_digest(tried.hex(), wire["hash"])
+
+
+def badge_check(badge: str, secure: dict) -> str | None:
+    """The `holder` of the badge read at the robot if it opens a secure delivery, by its plan
+    task's `secure.badges` (protocol, "Secure deliveries"), else None. Each entry is checked
+    as a PIN is, with its own salt and iterations; no network needed."""
+    for entry in secure.get("badges", ()):
+        if entry.get("algorithm") != "pbkdf2_sha256":
+            continue  # an algorithm this client does not know: never opens
+        salt = bytes.fromhex(entry["salt"])
+        tried = hashlib.pbkdf2_hmac("sha256", badge.encode(), salt, int(entry["iterations"]))
+        if hmac.compare_digest(tried.hex(), entry["hash"]):
+            return entry["holder"]
+    return None
 
 
 class TransportError(Exception):

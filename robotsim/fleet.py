@@ -48,6 +48,7 @@ class FleetConfig:
     traffic_rate: float = 0.0  # deliveries per simulated hour
     traffic_token: str | None = None
     secure_share: float = 0.0  # of the medication deliveries, secure (locked, PIN)
+    badges: dict[str, str] = field(default_factory=dict)  # station -> a unit user's badge id
 
 
 def fleet_file_read(path: str | Path) -> dict:
@@ -93,6 +94,7 @@ class Fleet:
             dead_zones=self.config.network.dead_zones,
             compartments=self._compartments(spec.code),
             pins=self.traffic.pins.get if self.traffic else (lambda task: None),
+            badges=self.config.badges.get,
         )
         transport.connected = robot.connected
         return robot

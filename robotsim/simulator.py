@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 
 from robots.router import MapEdge, Router, SiteMap
-from robotsim.client import RefusedError, RobotClient, pin_check
+from robotsim.client import RefusedError, RobotClient, badge_check, pin_check
 
 logger = logging.getLogger("robotsim")
 
@@ -112,6 +112,7 @@ class Behaviour:
     charge_rate: float = 1 / (2 * 3600)  # per second at the dock: full in 2 h
     wrong_pin: float = 0.2  # a recipient who knows the PIN mistypes it (once) this often
     pin_seconds: float = 8.0  # to type a PIN
+    badge_share: float = 0.5  # where a user of the unit has a badge, it opens this often
     # As the site file says (battery_per_metre, battery_per_ride), when given: then driving
     # drains per metre instead of per second, and each elevator ride drains too.
     drain_per_metre: float | None = None
@@ -182,11 +183,13 @@ class SimRobot:
         dead_zones: frozenset[str] = frozenset(),
         compartments: list[dict] = (),
         pins: Callable[[str], str | None] = lambda task: None,
+        badges: Callable[[str], str | None] = lambda station: None,
     ):
         self.client = client
         self.lockable = [c["code"] for c in compartments if c.get("lockable")]
         self.locked: dict[str, str] = {}  # task -> the compartment its items are locked in
         self.pins = pins
+        self.badges = badges  # station -> the badge id of a user of its unit, if any
         self.code = client.robot
         self.map = site_map
         self.router = router or Router(site_map)
@@ -509,6 +512,13 @@ class SimRobot:
         """The recipient types PINs until one opens the compartment or the robot locks it.
         Returns the `unloaded` event's fields, or None after compartment_locked."""
         compartment, known = self.locked[task], self.pins(task)
+        badge = self.badges(self.waypoint)
+        if badge is not None and self.rng.random() < self.behaviour.badge_share:
+            yield Sleep(self.behaviour.pin_seconds / 4)
+            holder = badge_check(badge, secure)  # on the robot, offline
+            if holder is not None:
+                del self.locked[task]
+                return {"compartment": compartment, "opened_with": "badge", "opened_by": holder}
         attempts = int(secure.get("max_attempts", 3))
         for wrong in range(attempts):
             yield Sleep(self.behaviour.pin_seconds)

@@ -44,6 +44,7 @@ class Stop:
     place: str
     action: str
     load_change: int
+    secure: bool = False  # a secure delivery's: each of its items needs a lockable compartment
 
 
 @dataclass(frozen=True)
@@ -67,6 +68,8 @@ class RobotRoute:
     tasks: tuple[TaskStops, ...]
     dwell: float = 0.0  # seconds spent at each stop (loading, unloading)
     pace: float = 1.0  # its travel times over travel_time's, for when tasks are done
+    lockable: int = 0  # lockable compartments: secure items on board at once, at most
+    secure_load: int = 0  # secure items on board now (counted in `load` too)
 
 
 @dataclass(frozen=True)
@@ -374,16 +377,22 @@ class _Problem:
     stops: list[Stop]
     times: list[list[float]]  # times[a][b]: travel from point a to point b
     needs: list[int]  # per stop, the bitmask of stops that must come before it
-    changes: list[int]
-    load: int
-    capacity: int
+    changes: list[int]  # load changes, packed (_packing)
+    load: int  # packed
+    top: int  # the largest packed load within capacity
+    fits: _Fits | None  # with secure items: the packed loads within capacity, else None
+
+    def holds(self, load: int) -> bool:
+        """Whether a packed load is within capacity (the hot loops inline this)."""
+        return _holds(load, self.top, self.fits)
 
     def first(self, count: int) -> _Problem:
         """The same route with only its first `count` stops."""
         times = [row[: count + 1] for row in self.times[: count + 1]]
         changes = self.changes[:count]
         stops, needs = self.stops[:count], self.needs[:count]
-        return _Problem(self.travel, stops, times, needs, changes, self.load, self.capacity)
+        load, top, fits = self.load, self.top, self.fits
+        return _Problem(self.travel, stops, times, needs, changes, load, top, fits)
 
     @cached_property
     def into(self) -> list[list[float]]:
@@ -413,8 +422,51 @@ def _problem(robot: RobotRoute, tasks: Sequence[TaskStops], travel: _Travel) -> 
         needs += [0] * len(task.pickups) + [pickups] * len(task.dropoffs)
     places = [robot.start, *(stop.place for stop in stops)]
     times = [[row[place] for place in places] for row in map(travel.__getitem__, places)]
-    changes = [stop.load_change for stop in stops]
-    return _Problem(travel, stops, times, needs, changes, robot.load, robot.capacity)
+    load, change, top, fits = _packing(robot, stops)
+    changes = [stop.load_change for stop in stops] if fits is None else list(map(change, stops))
+    return _Problem(travel, stops, times, needs, changes, load, top, fits)
+
+
+# Two capacities, one number: a route's load packs the items on board and, SECURE times over,
+# the secure ones among them (each needing a lockable compartment), so the searches below carry
+# one integer per state. Item counts stay far below SECURE. Without secure items the load is
+# the item count and the check the plain comparison with the capacity it always was.
+SECURE = 1 << 20
+
+
+class _Fits:
+    """The packed loads with at most `capacity` items, `lockable` of them secure."""
+
+    __slots__ = ("capacity", "lockable")
+
+    def __init__(self, capacity: int, lockable: int):
+        self.capacity, self.lockable = capacity, lockable
+
+    def __contains__(self, load: int) -> bool:
+        secure, items = divmod(load, SECURE)  # items off range (negative, say) fail below
+        return 0 <= items <= self.capacity and 0 <= secure <= min(self.lockable, items)
+
+
+def _packing(robot: RobotRoute, stops: Sequence[Stop]):
+    """(the packed load on board, the packed change of a stop, the largest packed load that
+    fits, the packed loads that fit or None without secure stops or items on board)."""
+    if not robot.secure_load and not any(stop.secure for stop in stops):
+        return robot.load, _item_change, robot.capacity, None
+    load = robot.load + robot.secure_load * SECURE
+    top = robot.capacity + robot.lockable * SECURE
+    return load, _packed_change, top, _Fits(robot.capacity, robot.lockable)
+
+
+def _holds(load: int, top: int, fits: _Fits | None) -> bool:
+    return 0 <= load <= top and (fits is None or load in fits)
+
+
+def _item_change(stop: Stop) -> int:
+    return stop.load_change
+
+
+def _packed_change(stop: Stop) -> int:
+    return stop.load_change * (1 + SECURE) if stop.secure else stop.load_change
 
 
 def _as_plan(problem: _Problem, cost: float, order: list[int]) -> Plan:
@@ -429,7 +481,7 @@ def _held_karp(problem: _Problem, limit: float, lower: list[float], tail=None):
     on the travel still to come exceeds the limit: the sum of `lower` over the stops left, plus
     tail(done, last) when given.
     """
-    if not 0 <= problem.load <= problem.capacity or math.inf in lower:
+    if not problem.holds(problem.load) or math.inf in lower:
         return None
     states = {0: (problem.load, sum(lower), problem.first_ready())}
     layers = [{0: {0: 0.0}}]
@@ -458,13 +510,13 @@ def _next_layer(problem, layer, states, lower, bound, tail):
 
     states[done] = (load on board, sum of `lower` over the stops left, stops that may come next).
     """
-    into, changes, capacity = problem.into, problem.changes, problem.capacity
+    into, changes, top, fits = problem.into, problem.changes, problem.top, problem.fits
     following: dict[int, dict[int, float]] = {}
     for done, ends in layer.items():
         load, rest, ready = states[done]
         for j in ready:
             new_load = load + changes[j]
-            if not 0 <= new_load <= capacity:
+            if not 0 <= new_load <= top or fits and new_load not in fits:
                 continue
             column, cost = into[j], math.inf
             for last, so_far in ends.items():
@@ -512,7 +564,7 @@ class _Finishing:
         self.states: dict[int, tuple[int, list[int]]] = {}  # done -> (load, stops that may come)
         self.choices: dict[int, list[tuple[int, float]]] = {}  # done -> [(next point, to finish)]
         self.finish: dict[int, dict[int, float]] = {}  # done -> {last point: to finish}
-        if 0 <= problem.load <= problem.capacity:
+        if problem.holds(problem.load):
             self._sweep(self._reachable())
 
     @property
@@ -549,7 +601,7 @@ class _Finishing:
     def _reachable(self) -> list[dict[int, set[int]]]:
         """Per layer, the sets of stops that can be done first, and the stops they can end at."""
         problem, states = self.problem, self.states
-        changes, capacity = problem.changes, problem.capacity
+        changes, top, fits = problem.changes, problem.top, problem.fits
         states[0] = (problem.load, problem.first_ready())
         layers = [{0: {0}}]
         for _ in problem.stops:
@@ -558,7 +610,7 @@ class _Finishing:
                 load, ready = states[done]
                 for j in ready:
                     new_load = load + changes[j]
-                    if not 0 <= new_load <= capacity:
+                    if not 0 <= new_load <= top or fits and new_load not in fits:
                         continue
                     key = done | 1 << j
                     lasts = following.get(key)
@@ -573,7 +625,7 @@ class _Finishing:
     def _sweep(self, layers: list[dict[int, set[int]]]) -> None:
         """Fill `finish` from the last layer back. Hot, so written with plain loops."""
         problem, finish = self.problem, self.finish
-        times, changes, capacity = problem.times, problem.changes, problem.capacity
+        times, changes, top, fits = problem.times, problem.changes, problem.top, problem.fits
         for lasts in layers[-1].values():
             finish[self.full] = dict.fromkeys(lasts, 0.0)
         for layer in reversed(layers[:-1]):
@@ -582,7 +634,10 @@ class _Finishing:
                 choices = []
                 for j in ready:
                     after = finish.get(done | 1 << j)
-                    if after is not None and 0 <= load + changes[j] <= capacity:
+                    if after is None:
+                        continue
+                    new_load = load + changes[j]
+                    if 0 <= new_load <= top and (fits is None or new_load in fits):
                         choices.append((j + 1, after[j + 1]))
                 if not choices:
                     continue
@@ -637,7 +692,7 @@ class _Enumeration:
         self.leaves = 0
 
     def run(self) -> tuple[float, list[int]] | None:
-        if 0 <= self.problem.load <= self.problem.capacity:
+        if self.problem.holds(self.problem.load):
             self._visit(0, 0, self.problem.load, 0.0, [])
         return self.best
 
@@ -648,7 +703,7 @@ class _Enumeration:
         problem = self.problem
         for j, need in enumerate(problem.needs):
             new_load = load + problem.changes[j]
-            if done >> j & 1 or need & ~done or not 0 <= new_load <= problem.capacity:
+            if done >> j & 1 or need & ~done or not problem.holds(new_load):
                 continue
             order.append(j)
             self._visit(j + 1, done | 1 << j, new_load, cost + problem.times[point][j + 1], order)
@@ -708,15 +763,16 @@ def _least_saving(place, before, after, travel: _Travel, *, may_be_last: bool) -
 
 def _inserted(robot: RobotRoute, order: Sequence[Stop], task: TaskStops, travel: _Travel):
     places = [robot.start, *(stop.place for stop in order)]
-    loads = _loads(robot.load, order)
+    loads, secure = _loads(robot.load, order), _loads(robot.secure_load, order, secure=True)
     pickups, dropoffs = [s.place for s in task.pickups], [s.place for s in task.dropoffs]
     carried = sum(stop.load_change for stop in task.pickups)
+    locked = carried if any(stop.secure for stop in task.pickups) else 0
     best = None
     for i in range(1, len(places) + 1):
-        peak = -math.inf
+        peak = secure_peak = -math.inf
         for j in range(i, len(places) + 1):
-            peak = max(peak, loads[j - 1])
-            if peak + carried > robot.capacity:
+            peak, secure_peak = max(peak, loads[j - 1]), max(secure_peak, secure[j - 1])
+            if peak + carried > robot.capacity or locked and secure_peak + locked > robot.lockable:
                 break
             if i == j:
                 cost = _detour(places, i, pickups + dropoffs, travel)
@@ -731,11 +787,11 @@ def _inserted(robot: RobotRoute, order: Sequence[Stop], task: TaskStops, travel:
     return _checked_plan(robot, stops, travel)
 
 
-def _loads(load: int, order: Sequence[Stop]) -> list[int]:
-    """Load on board on leaving the start, then each stop."""
+def _loads(load: int, order: Sequence[Stop], *, secure: bool = False) -> list[int]:
+    """Load on board (only its secure items, with `secure`) on leaving the start, then each stop."""
     loads = [load]
     for stop in order:
-        loads.append(loads[-1] + stop.load_change)
+        loads.append(loads[-1] + (stop.load_change if stop.secure or not secure else 0))
     return loads
 
 
@@ -805,15 +861,18 @@ def _cost(start: str, stops: Sequence[Stop], travel: _Travel) -> float:
 
 
 def _is_feasible(robot: RobotRoute, stops: Sequence[Stop]) -> bool:
-    """Every drop-off after all its task's pick-ups, load within [0, capacity] throughout."""
+    """Every drop-off after all its task's pick-ups, load within capacity throughout (and
+    secure items within the lockable compartments)."""
     waiting = Counter(stop.task for stop in stops if stop.action == PICKUP)
-    load = robot.load
+    load, change, top, fits = _packing(robot, stops)
+    if not _holds(load, top, fits):
+        return False
     for stop in stops:
         if stop.action == PICKUP:
             waiting[stop.task] -= 1
         elif waiting[stop.task]:
             return False
-        load += stop.load_change
-        if not 0 <= load <= robot.capacity:
+        load += change(stop)
+        if not _holds(load, top, fits):
             return False
-    return 0 <= robot.load <= robot.capacity
+    return True

@@ -112,6 +112,8 @@ def _held_route(robot: Robot, stops: list[TaskStop], now: datetime) -> HeldRoute
         tasks=tuple(task for task in held if task.pickups or task.dropoffs),
         dwell=dwell,
         pace=pace,
+        lockable=len(robot.lockable_compartments),
+        secure_load=sum(stop.load_change for stop in stops if stop.done_at and stop.task.secure),
     )
     signature = tuple((s.pk, s.task.status, s.is_remaining) for s in stops)
     tasks = {task.code: task for task in by_task}
@@ -120,7 +122,7 @@ def _held_route(robot: Robot, stops: list[TaskStop], now: datetime) -> HeldRoute
 
 def _stop(site: Site, task: Task, stop: TaskStop) -> Stop:
     place = waypoint_code(site, stop.waypoint_id)
-    return Stop(task.code, stop.index, place, stop.action, stop.load_change)
+    return Stop(task.code, stop.index, place, stop.action, stop.load_change, task.secure)
 
 
 def stations_by_code(*, site: Site, codes: Iterable[str]) -> dict[str, Waypoint]:
@@ -228,6 +230,8 @@ def task_disruption(task: Task, given_back: list[TaskTransition]) -> tuple[str, 
         return "Held by an operator", True
     if robot is not None and robot.presence == Presence.OFFLINE:
         return f"{robot.code} is offline: operators are alerted", True
+    if task.unattended_at is not None:
+        return "Nobody unloaded it at the drop-off: on its way back, not delivered", False
     if not given_back:
         return "", False
     why = given_back[-1].note or "Taken from its robot"

@@ -1,9 +1,12 @@
 """Delivery tasks on the API: request validation and what is shown."""
 
+from collections.abc import Mapping
 from datetime import timedelta
 
+from django.core.exceptions import ValidationError as DjangoValidationError
 from django.utils import timezone
 from rest_framework import serializers
+from rest_framework.fields import SkipField, get_error_detail
 
 from core.fields import StrictCharField, StrictDateTimeField, StrictIntegerField
 from robots.models import Site
@@ -119,50 +122,90 @@ class TaskRequestSerializer(serializers.Serializer):
     def validate_priority(self, name):
         return priority_of(name)
 
-    def validate(self, attrs):
-        attrs["site"] = attrs.get("site") or _only_site()
-        if "due_by" in attrs:
-            _due_by_check(attrs)
-        stations = stations_by_code(site=attrs["site"], codes=attrs["pickups"] + attrs["dropoffs"])
-        errors = {
-            **_station_errors("pickups", attrs["pickups"], stations, ()),
-            **_station_errors("dropoffs", attrs["dropoffs"], stations, attrs["pickups"]),
-        }
-        if not errors and len(attrs["pickups"]) > 1 and len(attrs["dropoffs"]) > 1:
-            errors["dropoffs"] = ["several pick-ups need exactly one drop-off (no many-to-many)"]
-        if attrs.get("secure") and attrs.get("repeat"):
-            errors["secure"] = ["a secure delivery cannot repeat: each has a PIN of its own"]
+    def to_internal_value(self, data):
+        """Every problem at once: each field's own, and those between fields that the valid
+        ones show (stations unknown on the site, repeated, both pick-up and drop-off...), so
+        one answer (and the delivery form) lists all of them; stations are named by name."""
+        if not isinstance(data, Mapping):
+            return super().to_internal_value(data)  # refused in DRF's words
+        attrs, errors = _fields_parsed(self, data)
+        errors = {**_between(attrs, errors), **errors}
         if errors:
             raise serializers.ValidationError(errors)
+        stations = attrs.pop("stations")
         attrs["pickups"] = [stations[code] for code in attrs["pickups"]]
         attrs["dropoffs"] = [stations[code] for code in attrs["dropoffs"]]
         return attrs
 
 
-def _due_by_check(attrs: dict) -> None:
+def _fields_parsed(serializer: serializers.Serializer, data) -> tuple[dict, dict]:
+    """(the valid fields' values, the others' errors): DRF's own loop over the fields, which
+    keeps the valid values where DRF drops them on the first error."""
+    attrs, errors = {}, {}
+    for field in serializer._writable_fields:
+        check = getattr(serializer, f"validate_{field.field_name}", None)
+        try:
+            value = field.run_validation(field.get_value(data))
+            attrs[field.source] = check(value) if check else value
+        except serializers.ValidationError as exc:
+            errors[field.field_name] = exc.detail
+        except DjangoValidationError as exc:
+            errors[field.field_name] = get_error_detail(exc)
+        except SkipField:
+            continue
+    return attrs, errors
+
+
+def _between(attrs: dict, errors: dict) -> dict:
+    """The problems between fields, each checked once the fields it needs are valid; sets
+    attrs["site"] and attrs["stations"] (code -> Waypoint) on the way."""
+    found: dict = {}
+    if "site" not in errors:
+        attrs["site"] = attrs.get("site") or _only_site(found)
+    if "due_by" in attrs and "requested_time" not in errors:
+        _due_by_check(attrs, found)
+    if attrs.get("secure") and attrs.get("repeat"):
+        found["secure"] = ["a secure delivery cannot repeat: each has a PIN of its own"]
+    if attrs.get("site") is None:
+        return found
+    pickups, dropoffs = attrs.get("pickups", []), attrs.get("dropoffs", [])
+    stations = stations_by_code(site=attrs["site"], codes=pickups + dropoffs)
+    attrs["stations"] = stations
+    found.update(_station_errors("pickups", pickups, stations, ()))
+    found.update(_station_errors("dropoffs", dropoffs, stations, pickups))
+    several = len(pickups) > 1 and len(dropoffs) > 1
+    if several and not {"pickups", "dropoffs"} & {*found, *errors}:
+        found["dropoffs"] = ["several pick-ups need exactly one drop-off (no many-to-many)"]
+    return found
+
+
+def _due_by_check(attrs: dict, found: dict) -> None:
     if "repeat" in attrs:
         why = "not with repeat: each occurrence is due by the site's default for its priority"
-        raise serializers.ValidationError({"due_by": [why]})
-    if attrs["due_by"] <= attrs.get("requested_time", timezone.now()):
-        raise serializers.ValidationError({"due_by": ["must be after the requested time"]})
+        found["due_by"] = [why]
+    elif attrs["due_by"] <= attrs.get("requested_time", timezone.now()):
+        found["due_by"] = ["must be after the requested time"]
 
 
-def _only_site() -> Site:
+def _only_site(found: dict) -> Site | None:
     sites = list(Site.objects.all()[:2])
     if len(sites) != 1:
-        raise serializers.ValidationError({"site": ["required: name the site"]})
+        found["site"] = ["required: name the site"]
+        return None
     return sites[0]
 
 
 def _station_errors(name: str, codes: list[str], stations: dict, pickups) -> dict:
+    """Problems with the stations of `codes`, named by their names ("Pharmacy is given
+    twice"); an unknown one as it was given."""
     errors = {}
     for n, code in enumerate(codes):
         if code not in stations:
             errors[n] = [f"unknown station {code!r}"]
         elif code in codes[:n]:
-            errors[n] = [f"station {code!r} is given twice"]
+            errors[n] = [f"{stations[code].label} is given twice"]
         elif code in pickups:
-            errors[n] = [f"station {code!r} is also a pick-up"]
+            errors[n] = [f"{stations[code].label} is also a pick-up"]
     return {name: errors} if errors else {}
 
 

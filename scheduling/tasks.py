@@ -30,4 +30,8 @@ def recurring_sweep() -> None:
 
 @shared_task
 def unload_timeout_sweep() -> None:
-    sweep_report("unload timeouts", {"drop-offs overdue": services.unload_timeout_sweep()})
+    overdue = services.unload_timeout_sweep()
+    sweep_report(
+        "unload timeouts",
+        {"drop-offs overdue": overdue, "robots moved on": services.unattended_sweep()},
+    )

@@ -43,9 +43,12 @@ def deliveries(request):
         site=site,
         stations=stations,
     )
-    if request.method == "POST" and form.is_valid():
+    if request.method == "POST":
+        # The API checks what the form could read even if it could not read everything, so
+        # every problem is shown at once (the form's own first: a time it cannot read).
+        form_valid = form.is_valid()
         request_data = TaskRequestSerializer(data=form.api_data())
-        if request_data.is_valid():
+        if request_data.is_valid() and form_valid:
             task = task_request(requester=request.user, **request_data.validated_data)
             late = lateness_note(eta=task.eta, due_at=task.due_at)
             messages.success(request, f"Delivery {task.code} requested: {task.contents}.")

@@ -154,21 +154,23 @@ class DeliveryRequestForm(forms.Form):
     # --- To and from the API -----------------------------------------------------------------
 
     def api_data(self) -> dict:
-        """The request as the API takes it (call after is_valid())."""
+        """The request as the API takes it (call after is_valid()): what the form could read,
+        even if not all of it, so the API can say what else is wrong."""
+        cleaned = self.cleaned_data
         data = {
-            "sender": self.cleaned_data["sender"],
-            "receiver": self.cleaned_data["receiver"],
-            "contents": self.cleaned_data["contents"],
-            "priority": self.cleaned_data["priority"] or Priority.ROUTINE,
-            "secure": bool(self.cleaned_data.get("secure")),
+            "sender": cleaned.get("sender", ""),
+            "receiver": cleaned.get("receiver", ""),
+            "contents": cleaned.get("contents", ""),
+            "priority": cleaned.get("priority") or Priority.ROUTINE,
+            "secure": bool(cleaned.get("secure")),
         }
         for name, (api_name, _label) in STOPS.items():
             data[api_name] = [
                 self.station_codes.get(v.casefold(), v) for v in self.stop_values[name]
             ]
-        if self.cleaned_data["site"]:
-            data["site"] = self.cleaned_data["site"]
-        when = self.cleaned_data["requested_time"]
+        if cleaned.get("site"):
+            data["site"] = cleaned["site"]
+        when = cleaned.get("requested_time")
         if when is not None and "requested_time" in self.changed_data:
             data["requested_time"] = when.isoformat()
         repeat = self._repeat()
@@ -177,19 +179,22 @@ class DeliveryRequestForm(forms.Form):
         return data
 
     def _repeat(self) -> dict | None:
-        mode, data = self.cleaned_data["repeat"], self.cleaned_data
+        mode, data = self.cleaned_data.get("repeat"), self.cleaned_data
         if mode == REPEAT_TIMES:
-            return {"times": [t for t in re.split(r"[,\s]+", data["repeat_times"]) if t]}
+            return {"times": [t for t in re.split(r"[,\s]+", data.get("repeat_times", "")) if t]}
         if mode == REPEAT_EVERY:
-            window = {"from": data["repeat_from"], "until": data["repeat_until"]}
+            window = {"from": data.get("repeat_from"), "until": data.get("repeat_until")}
             repeat = {key: value for key, value in window.items() if value}
-            if data["repeat_every"] is not None:
+            if data.get("repeat_every") is not None:
                 repeat["every_minutes"] = data["repeat_every"]
+            elif "repeat_every" in self.errors:  # unreadable: the form says so, not the API
+                repeat["every_minutes"] = 1
             return repeat
         return None
 
     def add_api_errors(self, errors: dict) -> None:
-        """Put the API's validation errors next to the form's fields they are about."""
+        """Put the API's validation errors next to the form's fields they are about (all of
+        them at once, stations named by name)."""
         self.repeat_mode = self.cleaned_data.get("repeat")
         for key, problems in errors.items():
             stop = next((name for name, (api, _) in STOPS.items() if api == key), None)
@@ -219,6 +224,8 @@ class DeliveryRequestForm(forms.Form):
             self._error(field, messages)
 
     def _error(self, field: str | None, problems) -> None:
+        if field is not None and field in self.errors:
+            return  # the form could not read it, and says so already
         self.add_error(field, _texts(problems))
 
     @property

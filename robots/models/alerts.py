@@ -16,6 +16,7 @@ class AlertKind(models.TextChoices):
     EVENT_ANOMALY = "event_anomaly", "Robot event that does not fit the delivery"
     COMPARTMENT_LOCKED = "compartment_locked", "Compartment kept locked after wrong PINs"
     UNLOAD_TIMEOUT = "unload_timeout", "Nobody unloaded a robot waiting at a drop-off"
+    UNATTENDED = "unattended", "Robot moved on from a drop-off nobody unloaded"
     DEADLINE_AT_RISK = "deadline_at_risk", "Delivery will be late"
 
 

@@ -9,6 +9,7 @@ from django.db import models
 from robots.choices import ResourceKind, WaypointKind
 
 POSITIVE = [MinValueValidator(0.001)]
+UNATTENDED_TO_PICKUP = "pickup"  # Site.unattended_return: back to the task's first pick-up
 
 
 class Site(models.Model):
@@ -40,6 +41,18 @@ class Site(models.Model):
         default=300.0,
         validators=POSITIVE,
         help_text="seconds a robot waits at a drop-off before operators are alerted",
+    )
+    # After the longer unattended_timeout the robot moves on: the items stay on board (secure
+    # ones locked) and go to unattended_return, the task ends failed (not delivered).
+    unattended_timeout = models.FloatField(
+        default=1800.0,
+        validators=POSITIVE,
+        help_text="seconds a robot waits at a drop-off nobody unloads before it moves on",
+    )
+    unattended_return = models.CharField(
+        max_length=64,
+        default=UNATTENDED_TO_PICKUP,
+        help_text='where it then takes the items: "pickup" (back to the sender) or a station code',
     )
     battery_threshold = models.FloatField(
         default=0.2, help_text="robots below this battery level get no new tasks"

@@ -1,7 +1,11 @@
 """Who works at which site: users see and act on their sites only (robots/membership.py)."""
 
 from django.conf import settings
+from django.core.exceptions import ValidationError
 from django.db import models
+
+from robots.badges import BadgeHash
+from robots.choices import WaypointKind
 
 
 class SiteMembership(models.Model):
@@ -12,6 +16,20 @@ class SiteMembership(models.Model):
         settings.AUTH_USER_MODEL, on_delete=models.CASCADE, related_name="site_memberships"
     )
     site = models.ForeignKey("robots.Site", on_delete=models.CASCADE, related_name="memberships")
+    # The unit (ward, laboratory...) the user works at, by its station: its users may open a
+    # secure delivery to that station with their badge (robots/badges.py: only its hash kept).
+    unit = models.ForeignKey(
+        "robots.Waypoint",
+        null=True,
+        blank=True,
+        on_delete=models.SET_NULL,
+        related_name="members",
+        limit_choices_to={"kind": WaypointKind.STATION},
+        help_text="the station of the user's unit",
+    )
+    badge_salt = models.CharField(max_length=64, blank=True, editable=False)
+    badge_iterations = models.PositiveIntegerField(default=0, editable=False)
+    badge_hash = models.CharField(max_length=128, blank=True, editable=False)
 
     class Meta:
         constraints = [
@@ -20,3 +38,17 @@ class SiteMembership(models.Model):
 
     def __str__(self):
         return f"{self.user} at {self.site}"
+
+    def clean(self):
+        if self.unit_id is None or self.site_id is None:
+            return
+        if self.unit.site_id != self.site_id or self.unit.kind != WaypointKind.STATION:
+            raise ValidationError({"unit": "a station of the membership's site"})
+
+    @property
+    def badge(self) -> BadgeHash | None:
+        """The hash of the user's badge, if one is set."""
+        if not self.badge_hash:
+            return None
+        salt, iterations = self.badge_salt, self.badge_iterations
+        return BadgeHash(salt=salt, iterations=iterations, hash=self.badge_hash)

@@ -9,6 +9,7 @@ class CustodyKind(models.TextChoices):
     LOADED = "loaded", "Loaded"
     UNLOADED = "unloaded", "Handed over"
     LOCKED_OUT = "locked_out", "Kept locked after wrong PINs"
+    MOVED_ON = "moved_on", "Taken away: nobody unloaded it"
 
 
 class CustodyEntry(models.Model):

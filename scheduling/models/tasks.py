@@ -69,6 +69,11 @@ class Task(models.Model):
     return_trip = models.BooleanField(
         default=False, help_text="cancelled after pick-up: going back to its pick-up point"
     )
+    unattended_at = models.DateTimeField(
+        null=True,
+        blank=True,
+        help_text="when its robot moved on from a drop-off nobody unloaded (a return trip too)",
+    )
     # A secure delivery (controlled medication, specimens) travels locked in a compartment
     # that opens for the recipient's PIN (scheduling/pins.py: only its salted slow hash is
     # kept) and goes only to robots with a lockable compartment.

@@ -37,7 +37,7 @@ from scheduling.services.presence import robot_offline, robot_tasks_give_back
 from scheduling.services.recurring import recurring_stop
 from scheduling.services.requests import recurring_sweep, task_request
 from scheduling.services.timeouts import ack_timeout_sweep
-from scheduling.services.unloading import unload_timeout_sweep
+from scheduling.services.unloading import task_move_on, unattended_sweep, unload_timeout_sweep
 
 __all__ = [
     "TaskNotCancellable",
@@ -56,6 +56,8 @@ __all__ = [
     "task_allocate",
     "task_allocate_with_its_site",
     "task_cancel",
+    "task_move_on",
     "task_request",
+    "unattended_sweep",
     "unload_timeout_sweep",
 ]

@@ -48,6 +48,10 @@ DUE_BATCH = 200  # tasks one due sweep allocates at most; the next sweep takes t
 NO_ROBOT = "no robot available (online, not paused or in error, battery above the threshold)"
 NO_SECURE_ROBOT = "secure: no available robot has a lockable compartment"
 NO_ROUTE = "no available robot can fit it in its route (capacity or unreachable stops)"
+NO_SECURE_ROUTE = (
+    "secure: no available robot has a lockable compartment free for it on its route "
+    "(or the capacity, or its stops are unreachable)"
+)
 NO_EMPTY_ROBOT = "no available robot is empty (single-task allocation)"
 NO_BATTERY = "no available robot has the battery to do it and get back to its dock"
 
@@ -137,7 +141,7 @@ class _Batch:
             candidates = _candidates(routes)
             choice = _choose(new, task, candidates, router_for(self.site).travel_time)
             if choice is None:
-                _wait(task, NO_BATTERY if short_of_battery else _why_not(routes, candidates))
+                _wait(task, NO_BATTERY if short_of_battery else _why_not(task, routes, candidates))
                 return False
             read = routes[choice.robot_id]
             if not robot_can_finish(robot=read.robot, start=read.route.start, stops=choice.stops):
@@ -277,7 +281,7 @@ def _allocate(task: Task, site: Site, now: datetime, stops: list[TaskStop] | Non
         candidates = _candidates(routes)
         choice = _choose(new, task, candidates, router_for(site).travel_time)
         if choice is None:
-            _wait(task, NO_BATTERY if short_of_battery else _why_not(routes, candidates))
+            _wait(task, NO_BATTERY if short_of_battery else _why_not(task, routes, candidates))
             return False
         read = routes[choice.robot_id]
         if not robot_can_finish(robot=read.robot, start=read.route.start, stops=choice.stops):
@@ -309,10 +313,12 @@ def _candidates(routes: dict[int, HeldRoute]) -> dict[int, HeldRoute]:
     return routes
 
 
-def _why_not(routes: dict[int, HeldRoute], candidates: dict[int, HeldRoute]) -> str:
+def _why_not(task: Task, routes: dict[int, HeldRoute], candidates: dict[int, HeldRoute]) -> str:
     if not routes:
         return NO_ROBOT
-    return NO_ROUTE if candidates else NO_EMPTY_ROBOT
+    if not candidates:
+        return NO_EMPTY_ROBOT
+    return NO_SECURE_ROUTE if task.secure else NO_ROUTE
 
 
 # settings.ALLOCATION_POLICY -> the allocator's rule for choosing among the candidates.

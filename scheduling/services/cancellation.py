@@ -91,19 +91,8 @@ def _cancel_held(task: Task, by, now: datetime) -> Task:
 
 def _return_trip(task: Task, stops: list[TaskStop], by, now: datetime) -> Task:
     """Drop what is left of the task; add a drop-off of what is on board where it came from."""
-    remaining = [stop for stop in stops if stop.is_remaining]
-    for stop in remaining:
-        stop.skipped_at = now
-    TaskStop.objects.bulk_update(remaining, ["skipped_at"])
-    origin = min((s for s in stops if s.action == StopAction.PICKUP), key=lambda s: s.index)
-    on_board = sum(stop.load_change for stop in stops if stop.done_at)
-    TaskStop.objects.create(
-        task=task,
-        index=max(stop.index for stop in stops) + 1,
-        action=StopAction.DROPOFF,
-        waypoint=origin.waypoint,
-        load_change=-on_board,
-    )
+    origin = task_origin(stops)
+    on_board = return_stop_add(task=task, stops=stops, waypoint=origin.waypoint, now=now)
     task.return_trip = True
     task.picked_up_at = task.picked_up_at or now
     note = f"cancelled after pick-up: returning {on_board} item(s) to {origin.waypoint.code}"
@@ -112,3 +101,26 @@ def _return_trip(task: Task, stops: list[TaskStop], by, now: datetime) -> Task:
     task_move(task, TaskStatus.PICKED_UP, at=now, fields=fields, **why)
     robot_replan(robot=task.robot, now=now)
     return task
+
+
+def task_origin(stops: list[TaskStop]) -> TaskStop:
+    """The task's first pick-up: where a return trip takes its items back to."""
+    return min((s for s in stops if s.action == StopAction.PICKUP), key=lambda s: s.index)
+
+
+def return_stop_add(*, task: Task, stops: list[TaskStop], waypoint, now: datetime) -> int:
+    """Skip the task's remaining stops and add one drop-off at `waypoint` of what is on board,
+    numbered after its last stop; returns how many items that is. Call with the robot locked."""
+    remaining = [stop for stop in stops if stop.is_remaining]
+    for stop in remaining:
+        stop.skipped_at = now
+    TaskStop.objects.bulk_update(remaining, ["skipped_at"])
+    on_board = sum(stop.load_change for stop in stops if stop.done_at)
+    TaskStop.objects.create(
+        task=task,
+        index=max(stop.index for stop in stops) + 1,
+        action=StopAction.DROPOFF,
+        waypoint=waypoint,
+        load_change=-on_board,
+    )
+    return on_board

@@ -48,6 +48,9 @@ def custody_words(entry: CustodyEntry) -> str:
     wrong = _wrong(entry.failed_attempts)
     if entry.kind == CustodyKind.LOADED:
         return f"Loaded into {compartment} at {entry.station or 'the pick-up'}{who}"
+    if entry.kind == CustodyKind.MOVED_ON:
+        where = entry.station or "the drop-off"
+        return f"Taken away from {where} in {compartment}: nobody unloaded it"
     if entry.kind == CustodyKind.LOCKED_OUT:
         where = entry.station or "the drop-off"
         return f"{compartment[0].upper()}{compartment[1:]} kept locked at {where}{wrong}"

@@ -216,8 +216,7 @@ def _unloaded(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> boo
     if any(s.is_remaining for s in task.stops.all() if s.action == StopAction.DROPOFF):
         return False
     if task.return_trip:
-        task.cancelled_at = beat.now
-        task_move(task, TaskStatus.CANCELLED, at=beat.now, fields=["cancelled_at"], **why)
+        _returned(beat, task, why)
     else:
         task.delivered_at = beat.now
         task_move(task, TaskStatus.DELIVERED, at=beat.now, fields=["delivered_at"], **why)
@@ -235,10 +234,19 @@ def _stop_done(beat: _Heartbeat, task: Task, event: RobotEvent) -> bool:
     return True
 
 
-def _completed(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> bool:
-    if task.return_trip:
+def _returned(beat: _Heartbeat, task: Task, why: dict) -> None:
+    """A return trip ends cancelled, or failed if nobody unloaded it at its drop-off."""
+    if task.unattended_at is not None:
+        task.failed_at, task.eta = task.failed_at or beat.now, None
+        task_move(task, TaskStatus.FAILED, at=beat.now, fields=["failed_at", "eta"], **why)
+    else:
         task.cancelled_at = task.cancelled_at or beat.now
         task_move(task, TaskStatus.CANCELLED, at=beat.now, fields=["cancelled_at"], **why)
+
+
+def _completed(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> bool:
+    if task.return_trip:
+        _returned(beat, task, why)
     else:
         task.completed_at = beat.now
         task_move(task, TaskStatus.COMPLETED, at=beat.now, fields=["completed_at"], **why)

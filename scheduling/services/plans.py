@@ -15,9 +15,9 @@ from boards.services import board_post, board_withdraw
 from robots.mapcache import router_for
 from robots.models import Robot
 from robots.router import Router
-from robots.selectors import robot_dock, robot_position
+from robots.selectors import robot_dock, robot_position, unit_badges
 from scheduling.allocator import Stop, best_plan
-from scheduling.choices import PRIORITY_ON_THE_WIRE
+from scheduling.choices import PRIORITY_ON_THE_WIRE, StopAction
 from scheduling.models import RobotPlan, Task
 from scheduling.selectors import HeldRoute, robot_pace, robot_route
 from scheduling.services.etas import etas_store, stop_times
@@ -147,4 +147,12 @@ def _task_wire(task: Task) -> dict:
         receiver=task.receiver,
         priority=PRIORITY_ON_THE_WIRE.get(task.priority, "normal"),
         pin=task.pin.wire() if task.pin else None,
+        badges=_receivers_badges(task) if task.pin else (),
     )
+
+
+def _receivers_badges(task: Task) -> list[dict]:
+    """The badges that open a secure delivery: those of the users of the units it is still to
+    be dropped off at (a return trip's: the unit it goes back to)."""
+    dropoffs = task.stops.remaining().filter(action=StopAction.DROPOFF)
+    return unit_badges(station_ids=dropoffs.values_list("waypoint_id", flat=True))

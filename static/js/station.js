@@ -31,12 +31,24 @@
   });
   showSound();
 
+  function showPinned() {
+    pinButton.textContent = "This is my station";
+    pinButton.disabled = true;
+  }
+
   pinButton.hidden = false;
   pinButton.addEventListener("click", () => {
     localStorage.setItem(MINE_KEY, JSON.stringify({ url: page.dataset.stationUrl, name: page.dataset.stationName }));
-    pinButton.textContent = "This is my station";
-    pinButton.disabled = true;
+    showPinned();
   });
+  try {
+    const mine = JSON.parse(localStorage.getItem(MINE_KEY) || "null");
+    if (mine && mine.url === page.dataset.stationUrl) {
+      showPinned(); // pinned before, in this browser
+    }
+  } catch (error) {
+    // garbled: offer to pin it
+  }
 
   function chime() {
     const Context = window.AudioContext || window.webkitAudioContext;

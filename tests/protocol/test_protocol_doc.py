@@ -50,12 +50,13 @@ from boards.serializers import (
     PlanStopSerializer,
 )
 from core.errors import flatten_errors
+from robots.badges import BadgeHash, badge_matches
 from robots.choices import REPORTABLE_STATUSES, Presence
 from robots.mapcache import router_for, site_map
 from robots.models import Robot, Waypoint
 from robots.services import robot_token_issue
 from robots.sitefile import site_file_read, site_load
-from robotsim.client import pin_check
+from robotsim.client import badge_check, pin_check
 from scheduling.models import Task, TaskStop
 from scheduling.pins import ALGORITHM, PinHash, pin_matches
 from scheduling.services import robot_action
@@ -678,3 +679,18 @@ def test_its_pin_hashes_open_for_the_pins_it_states_and_no_other():
         assert pin_matches(pin, hashed), f"{code}: {pin} does not match its documented hash"
         assert pin_check(pin, secure[code]), f"{code}: the reference client refuses {pin}"
         assert not pin_check("000000", secure[code])
+
+
+def test_its_badge_hashes_open_for_the_badge_it_states_and_name_its_holder():
+    """The worked secure delivery states a nurse's badge; the plan's hash is of it, as the
+    server makes it and as the reference client checks it, and never carries the badge."""
+    stated = re.findall(r"her badge `([0-9A-F:]+)` to", doc_text())
+    assert stated, f"{DOC.name} states no badge for its secure example"
+    [badge] = stated
+    secure = task_stops_documented()["T-0045"]["details"]["secure"]
+    [entry] = secure["badges"]
+    hashed = BadgeHash(salt=entry["salt"], iterations=entry["iterations"], hash=entry["hash"])
+    assert badge_matches(badge, hashed)
+    assert badge_check(badge, secure) == entry["holder"] == "park"
+    assert badge_check(badge.lower(), secure) is None
+    assert badge not in json.dumps(secure)

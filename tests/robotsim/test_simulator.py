@@ -14,8 +14,9 @@ from bench.inprocess import SERVER_URL, InProcessTaskApi, InProcessTransport
 from boards.models import RobotEvent
 from resources.leases import lease_sweep
 from resources.models import Lease
-from robots.models import Alert, Robot
+from robots.models import Alert, Robot, SiteMembership
 from robots.router import site_map_from_file
+from robots.services import membership_badge_set
 from robotsim.client import RobotClient
 from robotsim.simulator import Behaviour, ManualClock, RobotLoop, SimRobot
 from scheduling.models import CustodyEntry, Task
@@ -202,6 +203,25 @@ def test_its_recipient_opens_a_secure_delivery_with_the_pin_after_a_wrong_one(wo
     )
     kinds = list(CustodyEntry.objects.values_list("kind", "compartment", "failed_attempts"))
     assert kinds == [("loaded", "A", 0), ("unloaded", "A", 1)]
+
+
+def test_a_user_of_the_receiving_unit_opens_it_with_a_badge_checked_offline(world, api, nurse):
+    membership = SiteMembership.objects.get(user=nurse, site=world.site)
+    membership.unit = world.site.waypoints.get(code="3F-WARD")
+    membership.save(update_fields=["unit"])
+    membership_badge_set(membership=membership, badge="04:A2:19:C3:7F:5E:80")
+    badges = {"3F-WARD": "04:A2:19:C3:7F:5E:80"}.get  # nobody knows the PIN: only the badge
+    always = Behaviour(staff_delay=(5.0, 10.0), badge_share=1.0)
+    robot = world.robot("R1", "1F-DOCK-1", behaviour=always, compartments=LOCKING, badges=badges)
+    world.run_until(lambda: robot.client.seq > 1)
+    code, _pin = secure_order(api, ["1F-PHARM"], ["3F-WARD"])
+
+    world.run_until(completed(code))
+
+    unloaded = next(e for e in robot.log if e.get("type") == "unloaded")
+    assert (unloaded["opened_with"], unloaded["opened_by"]) == ("badge", "kim")
+    entry = CustodyEntry.objects.get(kind="unloaded")
+    assert (entry.opened_with, entry.opened_by, entry.failed_attempts) == ("badge", "kim", 0)
 
 
 def test_a_recipient_without_the_pin_gets_it_locked_and_operators_alerted(world, api):

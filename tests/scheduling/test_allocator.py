@@ -391,3 +391,72 @@ def test_it_imports_nothing_from_django():
 
 def _rng(seed):
     return random.Random(seed)
+
+
+def _secure(task, secure=True):
+    """The task as a secure delivery (or not): each item then needs a lockable compartment."""
+    pickups = tuple(replace(stop, secure=secure) for stop in task.pickups)
+    return replace(
+        task,
+        pickups=pickups,
+        dropoffs=tuple(replace(stop, secure=secure) for stop in task.dropoffs),
+    )
+
+
+def test_it_gives_each_secure_item_a_lockable_compartment_of_its_own():
+    site = building(_rng(11))
+    a, b, c, d = site.places[:4]
+    held = _secure(one_to_one("T-0001", a, b))
+    robot = RobotRoute("R-01", start=c, load=0, capacity=2, tasks=(held,), lockable=1)
+    task = _secure(one_to_one("T-0002", c, d))
+
+    plan = allocate(task, [robot], site.travel_time).plan
+
+    # Two compartments, one lockable: the two secure deliveries are never on board together,
+    # though that would be shorter (the control: a second lockable compartment).
+    assert _most_secure_on_board(plan) == 1
+    assert plan == enumerate_best_plan(robot, site.travel_time, extra=task)
+    roomier = allocate(task, [replace(robot, lockable=2)], site.travel_time).plan
+    assert _most_secure_on_board(roomier) == 2
+    assert roomier.cost < plan.cost
+
+
+def _most_secure_on_board(plan, on_board=0) -> int:
+    most = on_board
+    for stop in plan.stops:
+        on_board += stop.load_change if stop.secure else 0
+        most = max(most, on_board)
+    return most
+
+
+def test_it_gives_no_secure_delivery_to_a_robot_without_a_lockable_compartment_free():
+    site = building(_rng(12))
+    a, b, c = site.places[:3]
+    on_board = replace(_secure(one_to_one("T-0001", a, b)), pickups=())
+    full = RobotRoute("R-01", a, 1, 4, (on_board,), lockable=1, secure_load=1)
+    task = _secure(one_to_one("T-0002", a, c))
+    plan = allocate(task, [full], site.travel_time).plan
+    assert plan.stops.index(task.pickups[0]) > plan.stops.index(on_board.dropoffs[0])
+
+    empty = RobotRoute("R-01", a, 0, 4, ())
+    assert allocate(task, [empty], site.travel_time) is None  # no lockable compartment
+    assert allocate(_secure(task, False), [empty], site.travel_time)
+    two_items = _secure(one_to_many("T-0003", a, [b, c]))
+    assert allocate(two_items, [replace(empty, lockable=1)], site.travel_time) is None
+    assert allocate(two_items, [replace(empty, lockable=2)], site.travel_time)
+
+
+def test_its_heuristic_routes_keep_secure_items_within_the_lockable_compartments():
+    site = building(_rng(13))
+    places = site.places
+    held = tuple(
+        _secure(one_to_one(f"T-{n:04d}", places[n], places[n + 1])) for n in range(EXACT_TASK_LIMIT)
+    )
+    robot = RobotRoute("R-01", places[0], 0, 4, held, lockable=1)
+    task = _secure(one_to_one("T-0099", places[-1], places[-2]))
+
+    plan = allocate(task, [robot], site.travel_time).plan
+
+    assert not plan.exact
+    assert_valid_route(robot, plan, site.travel_time, task)
+    assert _most_secure_on_board(plan) == 1

@@ -2,6 +2,7 @@
 
 import copy
 from datetime import timedelta
+from unittest.mock import ANY
 
 import pytest
 from django.test import Client
@@ -119,6 +120,34 @@ def test_it_refuses_an_invalid_request_naming_the_field(api, site, overrides, fi
     assert field in response.json()["detail"], response.json()
     assert not Task.objects.exists()
     assert not RecurringRequest.objects.exists()
+
+
+def test_it_names_every_problem_at_once_and_stations_by_name(api, site):
+    body = valid(
+        sender="",
+        priority="asap",
+        requested_time="tomorrow",
+        dropoffs=["1F-PHARM", "2F-LAB", "2F-LAB", "NOWHERE"],
+        secure=True,
+        repeat={"times": ["08:00"]},
+    )
+
+    response = api("post", "tasks/", body)
+
+    assert response.status_code == 400, response.content
+    assert response.json() == {
+        "error": "invalid",
+        "detail": {
+            "sender": ["This field may not be blank."],
+            "priority": ['"asap" is not a valid choice.'],
+            "requested_time": [ANY],
+            "dropoffs[0]": ["Pharmacy is also a pick-up"],
+            "dropoffs[2]": ["Laboratory is given twice"],
+            "dropoffs[3]": ["unknown station 'NOWHERE'"],
+            "secure": ["a secure delivery cannot repeat: each has a PIN of its own"],
+        },
+    }
+    assert not Task.objects.exists()
 
 
 def test_it_refuses_many_to_many(api):

@@ -10,16 +10,20 @@ import pytest
 from django.test import Client
 from django.utils import timezone
 
-from robots.models import Alert, Robot, Waypoint
+from robots.badges import badge_matches
+from robots.models import Alert, Robot, SiteMembership, Waypoint
+from robots.services import membership_badge_set
 from robots.sitefile import SiteFileInvalid, site_load
-from robotsim.client import pin_check
+from robotsim.client import badge_check, pin_check
 from scheduling.models import CustodyEntry, Task
 from scheduling.pins import pin_matches
 from scheduling.services import task_allocate
+from scheduling.services.allocation import NO_SECURE_ROUTE
 from tests import factories
-from tests.scheduling.conftest import Beater, event, plans, request, robot_ready, status
+from tests.scheduling.conftest import Beater, event, plans, request, robot_ready, route, status
 
 LOCKING = [{"code": "A", "lockable": True}, {"code": "B"}]
+PICK_DROP = ("pickup", "dropoff")
 
 
 @pytest.fixture
@@ -102,6 +106,62 @@ def test_it_goes_only_to_a_robot_with_a_lockable_compartment(r1, site):
     assert task_allocate(task_id=task.pk)
     task.refresh_from_db()
     assert task.robot == far  # though R1 is as near
+
+
+def _secure_on_board_at_most(plan: dict) -> int:
+    """The most secure deliveries a plan has on board at once (its tasks all secure here)."""
+    on_board = most = 0
+    for task, _, action, _ in route(plan):
+        if not task:
+            continue
+        on_board += 1 if action == "pickup" else -1
+        most = max(most, on_board)
+    return most
+
+
+def test_one_lockable_compartment_takes_one_secure_delivery_at_a_time(site):
+    # R2 has two compartments, one lockable, and stands at the pharmacy where both are picked
+    # up: counting items, it would load both at once.
+    at_pharmacy = factories.robot_create(site, "R2", compartments=LOCKING)
+    robot = robot_ready(at_pharmacy, at="1F-PHARM")
+    first = request(site, secure=True, dropoffs=("3F-WARD",))
+    second = request(site, secure=True, dropoffs=("2F-LAB",))
+    assert task_allocate(task_id=first.pk)
+    assert task_allocate(task_id=second.pk)
+
+    *_, plan = plans(Beater(robot).beat())
+
+    stops = [(task, action) for task, _, action, _ in route(plan) if task]
+    assert sorted(stops) == sorted((t.code, a) for t in (first, second) for a in PICK_DROP)
+    assert _secure_on_board_at_most(plan) == 1  # one delivered before the other is loaded
+
+
+def test_a_second_secure_delivery_goes_to_another_robot_with_its_compartment_free(site):
+    carrying = robot_ready(factories.robot_create(site, "R2", compartments=LOCKING), at="1F-PHARM")
+    first = request(site, secure=True, dropoffs=("3F-WARD",))
+    assert task_allocate(task_id=first.pk)
+    Beater(carrying).beat(events=[event("loaded", first.code, 0, compartment="A")])
+    other = factories.robot_create(site, "R3", compartments=LOCKING)
+    other = robot_ready(other, at="1F-DOCK-1")
+
+    second = request(site, secure=True, dropoffs=("3F-WARD",))
+    assert task_allocate(task_id=second.pk)
+
+    second.refresh_from_db()
+    assert second.robot == other  # though R2 stands at its pick-up going the same way
+
+
+def test_a_secure_delivery_waits_for_as_many_lockable_compartments_as_its_items(site):
+    robot_ready(factories.robot_create(site, "R2", compartments=LOCKING), at="1F-PHARM")
+    two_wards = request(site, secure=True, dropoffs=("3F-WARD", "2F-LAB"))  # two items
+
+    assert not task_allocate(task_id=two_wards.pk)
+
+    two_wards.refresh_from_db()
+    assert two_wards.waiting_reason == NO_SECURE_ROUTE
+    both = [{"code": "A", "lockable": True}, {"code": "B", "lockable": True}]
+    robot_ready(factories.robot_create(site, "R3", compartments=both))
+    assert task_allocate(task_id=two_wards.pk)
 
 
 def test_the_plan_lets_the_robot_check_the_pin_offline(locking, site):
@@ -208,3 +268,72 @@ def test_nurses_may_not_export_custody(site, nurse):
     client.force_login(nurse)
 
     assert client.get("/custody.csv?from=2026-11-01&to=2026-11-02").status_code == 403
+
+
+# --- Badges of the receiving unit's users ---------------------------------------------------
+
+WARD_BADGE = "04:A2:19:C3:7F:5E:80"
+
+
+def _unit(user, site, station: str, badge: str) -> SiteMembership:
+    membership = SiteMembership.objects.get(user=user, site=site)
+    membership.unit = Waypoint.objects.get(site=site, code=station)
+    membership.save(update_fields=["unit"])
+    membership_badge_set(membership=membership, badge=badge)
+    return membership
+
+
+def test_the_plan_carries_the_hashed_badges_of_the_receiving_units_users(locking, site, nurse):
+    _unit(nurse, site, "3F-WARD", WARD_BADGE)
+    lab = factories.user_create("lee", "nurse")
+    _unit(lab, site, "2F-LAB", "04:FF:00:11:22:33:44")
+    task = request(site, secure=True, dropoffs=("3F-WARD",))
+    assert task_allocate(task_id=task.pk)
+
+    [plan] = plans(Beater(locking).beat())
+
+    secure = plan["tasks"][task.code]["secure"]
+    assert [entry["holder"] for entry in secure["badges"]] == ["kim"]  # not the lab's
+    assert badge_check(WARD_BADGE, secure) == "kim"
+    assert badge_check("04:FF:00:11:22:33:44", secure) is None
+    assert WARD_BADGE not in str(plan)
+    assert WARD_BADGE not in str(SiteMembership.objects.values())  # only its hash is kept
+
+
+def test_the_custody_record_names_who_opened_with_a_badge(locking, site, nurse):
+    _unit(nurse, site, "3F-WARD", WARD_BADGE)
+    task = request(site, secure=True, dropoffs=("3F-WARD",))
+    task_allocate(task_id=task.pk)
+    beater = Beater(locking)
+    beater.beat(events=[event("loaded", task.code, 0, compartment="A")])
+    opened = event("unloaded", task.code, 1, compartment="A", opened_with="badge", opened_by="kim")
+    beater.beat(events=[opened], floor="3F", waypoint="3F-WARD")
+
+    entry = CustodyEntry.objects.get(kind="unloaded")
+    assert (entry.opened_with, entry.opened_by) == ("badge", "kim")
+    assert "Handed over at Ward 3 from compartment A, opened with a badge (kim)" in set(
+        task.history.values_list("note", flat=True)
+    )
+
+
+def test_admins_set_a_users_unit_and_badge_and_only_its_hash_is_kept(site, nurse, admin_client):
+    membership = SiteMembership.objects.get(user=nurse, site=site)
+    ward = Waypoint.objects.get(site=site, code="3F-WARD")
+    url = f"/admin/robots/sitemembership/{membership.pk}/change/"
+    body = {"user": nurse.pk, "site": site.pk, "unit": ward.pk, "badge": WARD_BADGE}
+
+    response = admin_client.post(url, body)
+
+    assert response.status_code == 302, response.content.decode()[:2000]
+    membership.refresh_from_db()
+    assert membership.unit == ward
+    assert membership.badge is not None
+    assert badge_matches(WARD_BADGE, membership.badge)
+    admin_client.post(url, {**body, "badge": ""})  # left empty: kept
+    membership.refresh_from_db()
+    assert membership.badge_hash
+    hall = Waypoint.objects.get(site=site, code="1F-HALL")
+    refused = admin_client.post(url, {**body, "unit": hall.pk})
+    assert refused.status_code == 200  # not a station: the form says so
+    membership.refresh_from_db()
+    assert membership.unit == ward

@@ -123,6 +123,24 @@ def test_it_shows_errors_next_to_their_fields_and_creates_nothing(nurse_client, 
     assert not Task.objects.exists()
 
 
+def test_it_shows_every_error_at_once_naming_stations_by_name(nurse_client, site):
+    response = order(
+        nurse_client,
+        sender="",
+        requested_time="not a time",
+        pickup=["Pharmacy"],
+        dropoff=["Laboratory", "laboratory", "Pharmacy"],
+    )
+
+    assert response.status_code == 400
+    assert error_of(response, "id_sender") == "This field may not be blank."
+    assert error_of(response, "id_requested_time") == "Enter a valid date/time."
+    assert error_of(response, "id_dropoff_2") == "Laboratory is given twice"
+    assert error_of(response, "id_dropoff_3") == "Pharmacy is also a pick-up"
+    assert "2F-LAB" not in response.content.decode().split('id="id_dropoff_2_error"')[1][:200]
+    assert not Task.objects.exists()
+
+
 def test_it_shows_an_unknown_station_next_to_its_input(nurse_client, site):
     response = order(nurse_client, dropoff=["Nowhere"])
 

@@ -8,7 +8,9 @@ Idempotent; ./scripts/run.sh runs it on every start.
 * fleet: a new token for every robot of the site, and a new API token for the staff user
   `traffic` (the simulated fleet's request generator), written with the server's URLs and the
   site file to var/fleet.json (mode 600), which `manage.py simulate_fleet` reads. Tokens are
-  stored hashed, so they are issued again on each run (the previous ones stop working).
+  stored hashed, so they are issued again on each run (the previous ones stop working). The
+  demo nurse is given the site's first ward as her unit and a new badge, whose id goes into
+  var/fleet.json for the simulated staff of that ward (only its hash is kept by the server).
 """
 
 import json
@@ -22,8 +24,9 @@ from django.core.management.base import BaseCommand, CommandError
 from django.db import transaction
 
 from hospital_delivery.models import ApiToken
-from robots.models import Robot, Site, SiteMembership
-from robots.services import robot_token_issue
+from robots.choices import WaypointKind
+from robots.models import Robot, Site, SiteMembership, Waypoint
+from robots.services import membership_badge_set, robot_token_issue
 from robots.sitefile import SiteFileInvalid, site_file_read
 
 GROUPS = ("nurse", "operator")
@@ -139,11 +142,28 @@ class Command(BaseCommand):
             "site_file": site_file,
             "robots": robots,
             "traffic_token": ApiToken.issue(self._traffic_user()),
+            "badges": self._nurse_badge(site),
         }
         path = Path(options["fleet_file"])
         write_private(path, fleet)
         codes = ", ".join(robot["code"] for robot in robots) or "none"
         self.stdout.write(f"Tokens for robots {codes} and the traffic user's API token: {path}")
+
+    def _nurse_badge(self, site: Site) -> dict[str, str]:
+        """The demo nurse works on the site's first ward, with a new badge each run (only its
+        hash is kept): the simulated staff there open secure deliveries with it too."""
+        membership = SiteMembership.objects.filter(user__username="nurse", site=site).first()
+        wards = Waypoint.objects.filter(
+            site=site, kind=WaypointKind.STATION, code__icontains="ward"
+        )
+        ward = wards.order_by("code").first()
+        if membership is None or ward is None:
+            return {}
+        badge = ":".join(secrets.token_hex(1).upper() for _ in range(7))
+        membership.unit = ward
+        membership.save(update_fields=["unit"])
+        membership_badge_set(membership=membership, badge=badge)
+        return {ward.code: badge}
 
     def _traffic_user(self):
         User = get_user_model()

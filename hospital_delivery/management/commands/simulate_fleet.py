@@ -134,6 +134,7 @@ class Command(BaseCommand):
             traffic_rate=options["traffic"],
             traffic_token=file.get("traffic_token"),
             secure_share=options["secure_share"],
+            badges=dict(file.get("badges", {})),
         )
 
     def _robots(self, file: dict, wanted: str | None) -> tuple[RobotSpec, ...]:
