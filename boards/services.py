@@ -48,6 +48,7 @@ class AppliedHeartbeat:
 class HeartbeatReply:
     server_time: datetime
     heartbeat_interval: float
+    map_version: int
     messages: list[BoardMessage]
 
 
@@ -86,6 +87,7 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
     return HeartbeatReply(
         server_time=now,
         heartbeat_interval=robot.site.heartbeat_interval,
+        map_version=robot.site.map_version,
         messages=board_pending(robot=robot),
     )
 
