@@ -73,9 +73,12 @@ def version_wire(version) -> dict:
     }
 
 
-def problems_by_place(problems: list[str]) -> dict[str, list[str]]:
+def problems_by_place(problems: list[str], *, field: str = "document") -> dict[str, list[str]]:
     """Site-file problems ("floors[0].edges[2]: unknown waypoint 'X'") as field errors of the
-    document ("document.floors[0].edges[2]": ["unknown waypoint 'X'"])."""
+    document ("document.floors[0].edges[2]": ["unknown waypoint 'X'"]); those of an uploaded
+    file's text all under its field."""
+    if field != "document":
+        return {field: list(problems)}
     detail: dict[str, list[str]] = {}
     for problem in problems:
         place, sep, what = problem.partition(": ")

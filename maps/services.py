@@ -30,9 +30,10 @@ BASELINE_NOTE = "the map as loaded from a site file (manage.py load_site)"
 class MapInvalid(Exception):
     """The document is not a valid site file for this site: every problem, by place."""
 
-    def __init__(self, problems: list[str]):
+    def __init__(self, problems: list[str], *, field: str = "document"):
         super().__init__(problems)
         self.problems = problems
+        self.field = field  # the request's field they are about
 
 
 class MapBlocked(Exception):
@@ -92,11 +93,11 @@ def draft_save(*, site: Site, document: dict, revision: int, user, rollout: str 
 def draft_upload(*, site: Site, text: str, name: str, revision: int, user) -> MapDraft:
     """A site file's text (YAML or JSON) as the draft."""
     if "\x00" in text:
-        raise MapInvalid([f"{name}: holds a NUL character"])
+        raise MapInvalid([f"{name}: holds a NUL character"], field="text")
     try:
         document = site_file_parse(text, name=name)
     except SiteFileInvalid as exc:
-        raise MapInvalid(exc.problems) from None
+        raise MapInvalid(exc.problems, field="text") from None
     return draft_save(site=site, document=document, revision=revision, user=user)
 
 

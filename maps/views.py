@@ -41,7 +41,8 @@ class MapView(APIView):
 
     def handle_exception(self, exc):
         if isinstance(exc, MapInvalid):
-            return error_response("invalid", s.problems_by_place(exc.problems), 400)
+            detail = s.problems_by_place(exc.problems, field=exc.field)
+            return error_response("invalid", detail, status.HTTP_400_BAD_REQUEST)
         if isinstance(exc, StaleRevision):
             detail = {"revision": [f"the draft is now at revision {exc.current}: read it again"]}
             return error_response("conflict", detail, status.HTTP_409_CONFLICT)
