@@ -667,6 +667,8 @@
     });
   }
 
+  $("selected-form").addEventListener("submit", (event) => event.preventDefault());
+
   $("wp-connect-add").addEventListener("click", () => {
     const other = $("wp-connect").value;
     if (selected && other) {
