@@ -130,14 +130,18 @@ def _waypoints(diff: MapDiff, old: dict[str, dict], new: dict[str, dict]) -> Non
 
 def _recoded(old: dict, new: dict, added: set, removed: set) -> dict[str, str]:
     """Removed waypoints with an added one of the same floor and place: a code changed."""
-    spots = {(new[c]["floor"], new[c].get("x"), new[c].get("y")): c for c in sorted(added)}
+    spots = {_spot(new[code]): code for code in sorted(added)}
     recoded = {}
     for code in sorted(removed):
-        wp = old[code]
-        match = spots.pop((wp["floor"], wp.get("x"), wp.get("y")), None)
+        match = spots.pop(_spot(old[code]), None)
         if match is not None:
             recoded[code] = match
     return recoded
+
+
+def _spot(wp: dict) -> tuple[str, str, str]:
+    """Where a waypoint is, as text: an invalid draft may hold anything as x or y."""
+    return wp["floor"], repr(wp.get("x")), repr(wp.get("y"))
 
 
 def _where(wp: dict) -> str:
@@ -146,8 +150,7 @@ def _where(wp: dict) -> str:
 
 
 def _waypoint_changes(diff: MapDiff, code: str, before: dict, after: dict) -> None:
-    place = lambda wp: (wp["floor"], wp.get("x"), wp.get("y"))  # noqa: E731
-    if place(before) != place(after):
+    if _spot(before) != _spot(after):
         detail = f"{_where(before)} → ({after.get('x')}, {after.get('y')}) on {after['floor']}"
         diff.changes.append(Change("waypoint", "moved", code, detail))
     if before.get("name", "") != after.get("name", ""):

@@ -87,3 +87,49 @@ def problems_by_place(problems: list[str], *, field: str = "document") -> dict[s
         key = f"document.{place}" if place else "document"
         detail.setdefault(key, []).append(what)
     return detail
+
+
+# --- What is answered (for the API's schema; the views answer the *_wire dicts) ---------------
+
+
+class DraftSerializer(serializers.Serializer):
+    site = serializers.CharField()
+    revision = serializers.IntegerField()
+    base_version = serializers.IntegerField(help_text="the map version the draft started from")
+    rollout = serializers.ChoiceField(choices=Rollout.choices)
+    updated_at = serializers.DateTimeField()
+    updated_by = serializers.CharField(allow_null=True)
+    document = serializers.JSONField(help_text="the whole site file")
+
+
+class ChangeSerializer(serializers.Serializer):
+    what = serializers.CharField(help_text="floor, waypoint, edge, station or resource")
+    how = serializers.CharField(help_text="added, removed, moved, renamed or changed")
+    code = serializers.CharField()
+    detail = serializers.CharField()
+
+
+class RouteCutSerializer(serializers.Serializer):
+    robot = serializers.CharField()
+    crosses = serializers.ListField(child=serializers.CharField())
+
+
+class CheckSerializer(serializers.Serializer):
+    revision = serializers.IntegerField()
+    rollout = serializers.ChoiceField(choices=Rollout.choices)
+    live_version = serializers.IntegerField()
+    problems = serializers.ListField(child=serializers.CharField(), help_text="by place")
+    changes = ChangeSerializer(many=True)
+    routes = RouteCutSerializer(many=True, help_text="robots whose current route is cut")
+    blockers = serializers.ListField(
+        child=serializers.CharField(), help_text="what forbids publishing whatever the site chose"
+    )
+
+
+class VersionSerializer(serializers.Serializer):
+    number = serializers.IntegerField()
+    author = serializers.CharField(allow_null=True)
+    published_at = serializers.DateTimeField()
+    note = serializers.CharField()
+    restored_from = serializers.IntegerField(allow_null=True)
+    replanned = serializers.ListField(child=serializers.CharField())

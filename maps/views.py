@@ -59,11 +59,17 @@ class MapView(APIView):
 
 
 class DraftView(MapView):
-    @extend_schema(summary="The site's map draft (a site file)", responses={200: None, **ERRORS})
+    @extend_schema(
+        summary="The site's map draft (a site file)", responses={200: s.DraftSerializer, **ERRORS}
+    )
     def get(self, request, site):
         return Response(s.draft_wire(draft_open(site=self.site(site))))
 
-    @extend_schema(summary="Replace the draft", request=s.DraftSaveSerializer, responses=ERRORS)
+    @extend_schema(
+        summary="Replace the draft",
+        request=s.DraftSaveSerializer,
+        responses={200: s.DraftSerializer, **ERRORS},
+    )
     def put(self, request, site):
         data = self.valid(s.DraftSaveSerializer, request)
         draft = draft_save(site=self.site(site), user=request.user, **data)
@@ -74,21 +80,29 @@ class DraftCheckView(MapView):
     @extend_schema(
         summary="The draft's problems, its changes against the live map, and the robots' "
         "routes and deliveries they touch",
-        responses={200: None, **ERRORS},
+        responses={200: s.CheckSerializer, **ERRORS},
     )
     def get(self, request, site):
         return Response(s.check_wire(draft_check(site=self.site(site))))
 
 
 class DraftUploadView(MapView):
-    @extend_schema(summary="A site file as the draft", request=s.DraftUploadSerializer)
+    @extend_schema(
+        summary="A site file as the draft",
+        request=s.DraftUploadSerializer,
+        responses={200: s.DraftSerializer, **ERRORS},
+    )
     def post(self, request, site):
         data = self.valid(s.DraftUploadSerializer, request)
         return Response(s.draft_wire(draft_upload(site=self.site(site), user=request.user, **data)))
 
 
 class DraftResetView(MapView):
-    @extend_schema(summary="Discard the draft's edits", request=s.RevisionSerializer)
+    @extend_schema(
+        summary="Discard the draft's edits",
+        request=s.RevisionSerializer,
+        responses={200: s.DraftSerializer, **ERRORS},
+    )
     def post(self, request, site):
         data = self.valid(s.RevisionSerializer, request)
         return Response(s.draft_wire(draft_reset(site=self.site(site), user=request.user, **data)))
@@ -96,7 +110,9 @@ class DraftResetView(MapView):
 
 class RolloutView(MapView):
     @extend_schema(
-        summary="Refuse or re-plan when a new map cuts routes", request=s.RolloutSerializer
+        summary="Refuse or re-plan when a new map cuts routes",
+        request=s.RolloutSerializer,
+        responses={200: s.DraftSerializer, **ERRORS},
     )
     def put(self, request, site):
         data = self.valid(s.RolloutSerializer, request)
@@ -105,7 +121,11 @@ class RolloutView(MapView):
 
 
 class PublishView(MapView):
-    @extend_schema(summary="Publish the draft as a new map version", request=s.PublishSerializer)
+    @extend_schema(
+        summary="Publish the draft as a new map version",
+        request=s.PublishSerializer,
+        responses={201: s.VersionSerializer, **ERRORS},
+    )
     def post(self, request, site):
         data = self.valid(s.PublishSerializer, request)
         version = draft_publish(site=self.site(site), user=request.user, **data)
@@ -113,14 +133,21 @@ class PublishView(MapView):
 
 
 class VersionsView(MapView):
-    @extend_schema(summary="Published map versions, newest first")
+    @extend_schema(
+        summary="Published map versions, newest first",
+        responses={200: s.VersionSerializer(many=True), **ERRORS},
+    )
     def get(self, request, site):
         versions = MapVersion.objects.filter(site=self.site(site)).select_related("author")
         return Response([s.version_wire(version) for version in versions])
 
 
 class RestoreView(MapView):
-    @extend_schema(summary="Roll back: publish an older version again", request=s.RestoreSerializer)
+    @extend_schema(
+        summary="Roll back: publish an older version again",
+        request=s.RestoreSerializer,
+        responses={201: s.VersionSerializer, **ERRORS},
+    )
     def post(self, request, site, number):
         data = self.valid(s.RestoreSerializer, request)
         version = version_restore(site=self.site(site), number=number, user=request.user, **data)

@@ -187,3 +187,32 @@ def test_it_tells_robots_the_new_map_version_in_their_heartbeat_answer(site, rob
     assert post(admin_client, f"{DRAFT}/publish", {"revision": revision}).status_code == 201
 
     assert heartbeat(2)["map_version"] == 2
+
+
+def test_it_checks_a_draft_holding_anything_without_failing(site, admin_client):
+    garbage = {
+        "site": "tiny",
+        "floors": [
+            {"code": "1F", "waypoints": [{"code": "A", "x": [1], "y": {}}, 7, {"code": ["B"]}]},
+            {"code": "2F", "level": "two", "edges": [5, [1], {"to": "x"}, ["A"], None]},
+            "not a floor",
+        ],
+        "resources": "none",
+        "robots": [{"code": "R9", "dock": "A"}],
+    }
+    assert put(admin_client, {"revision": 1, "document": garbage}).status_code == 200
+
+    response = admin_client.get(f"{DRAFT}/check")
+
+    assert response.status_code == 200, response.content
+    check = response.json()
+    assert len(check["problems"]) > 5
+    assert {
+        "what": "waypoint",
+        "how": "added",
+        "code": "A",
+        "detail": "plain on 1F at ([1], {})",
+    } in check["changes"]
+    published = post(admin_client, f"{DRAFT}/publish", {"revision": 2})
+    assert published.status_code == 400
+    assert Site.objects.get(pk=site.pk).map_version == 1
