@@ -8,6 +8,7 @@ from django.db.models import Count
 
 from maps.diff import MapDiff
 from resources.models import Lease
+from robots.choices import RobotStatus
 from robots.mapcache import router_for
 from robots.models import Robot, Site
 from robots.selectors import robot_position
@@ -40,9 +41,10 @@ def rollout_impact(*, site: Site, diff: MapDiff, now: datetime) -> Impact:
     """Read on the live map (the site's cached router), before anything is written."""
     impact = Impact()
     robots = list(Robot.objects.filter(site=site).select_related("site").order_by("code"))
-    impact.cut = _routes_cut(site, robots, diff, now)
+    impact.cut, heading = _routes_cut(site, robots, diff, now)
     impact.blockers = [
         *_robots_standing_on(robots, diff),
+        *heading,
         *_leases_held(site, diff),
         *_deliveries_pending(site, diff),
         *_stations_with_history(site, diff),
@@ -51,19 +53,32 @@ def rollout_impact(*, site: Site, diff: MapDiff, now: datetime) -> Impact:
     return impact
 
 
-def _routes_cut(site: Site, robots: list[Robot], diff: MapDiff, now: datetime) -> list[RouteCut]:
+def _routes_cut(
+    site: Site, robots: list[Robot], diff: MapDiff, now: datetime
+) -> tuple[list[RouteCut], list[str]]:
+    """Robots whose remaining route crosses what the map removes; and, as blockers, those
+    driving to a removed waypoint right now: a robot takes a new plan from its next waypoint on
+    (never in the middle of a hop), so that waypoint must stay even if it is re-planned."""
     plans = {plan.robot_id: plan for plan in RobotPlan.objects.filter(robot__in=robots)}
     held = robot_routes(robots=robots, now=now)
     router = router_for(site)
-    cut = []
+    cut, heading = [], []
     for robot in robots:
         plan = plans.get(robot.pk)
         if plan is None:
             continue
-        crosses = _crossed(router, robot_position(robot), _remaining(plan, held[robot.pk]), diff)
+        start, places = robot_position(robot), _remaining(plan, held[robot.pk])
+        crosses = _crossed(router, start, places, diff)
         if crosses:
             cut.append(RouteCut(robot.code, tuple(crosses)))
-    return cut
+        moving = robot.status in (RobotStatus.MOVING, RobotStatus.IN_RESOURCE)
+        ahead = router.leg(start, places[0]).path[1:2] if places and moving else []
+        if ahead and ahead[0] in diff.removed_waypoints:
+            heading.append(
+                f"robot {robot.code} is on its way to waypoint {ahead[0]}, which the new map "
+                "removes: publish once it has passed"
+            )
+    return cut, heading
 
 
 def _remaining(plan: RobotPlan, held) -> list[str]:

@@ -20,7 +20,7 @@ from maps.services import (
     version_restore,
 )
 from robots.mapcache import router_for, site_map
-from robots.models import Site
+from robots.models import Robot, Site
 from robots.sitefile import site_file_parse, site_load
 from scheduling.models import RobotPlan
 from scheduling.services import task_allocate
@@ -232,3 +232,21 @@ def test_it_refuses_to_remove_a_station_with_a_delivery_pending_whatever_the_sit
     assert any("drop-off at 2F-LAB" in b and "T-" in b for b in blockers), blockers
     site.refresh_from_db()
     assert site.map_version == 1
+
+
+@pytest.mark.django_db(transaction=True)
+def test_it_refuses_a_map_removing_the_waypoint_a_robot_is_driving_to_even_to_replan(
+    site, robot_on_its_way, staff
+):
+    Robot.objects.filter(pk=robot_on_its_way.pk).update(status="moving")  # leaving its dock
+    draft_rollout_set(site=site, rollout=Rollout.REPLAN, user=staff)
+    draft = draft_of(site, without_the_1f_hall(site_document(site)), staff)
+
+    with pytest.raises(MapBlocked) as refused:
+        draft_publish(site=site, revision=draft.revision, user=staff)
+
+    assert refused.value.impact.blockers == [
+        "robot R1 is on its way to waypoint 1F-HALL, which the new map removes: "
+        "publish once it has passed"
+    ]
+    assert Site.objects.get(pk=site.pk).map_version == 1
