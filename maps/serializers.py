@@ -133,3 +133,7 @@ class VersionSerializer(serializers.Serializer):
     note = serializers.CharField()
     restored_from = serializers.IntegerField(allow_null=True)
     replanned = serializers.ListField(child=serializers.CharField())
+
+
+class VersionDocumentSerializer(VersionSerializer):
+    document = serializers.JSONField(help_text="the site file as published")

@@ -10,6 +10,7 @@ urlpatterns = [
     path("maps/<str:site>/draft/publish", views.PublishView.as_view(), name="map-publish"),
     path("maps/<str:site>/rollout", views.RolloutView.as_view(), name="map-rollout"),
     path("maps/<str:site>/versions", views.VersionsView.as_view(), name="map-versions"),
+    path("maps/<str:site>/versions/<int:number>", views.VersionView.as_view(), name="map-version"),
     path(
         "maps/<str:site>/versions/<int:number>/restore",
         views.RestoreView.as_view(),

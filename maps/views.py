@@ -142,6 +142,18 @@ class VersionsView(MapView):
         return Response([s.version_wire(version) for version in versions])
 
 
+class VersionView(MapView):
+    @extend_schema(
+        summary="One published version with its site file",
+        responses={200: s.VersionDocumentSerializer, **ERRORS},
+    )
+    def get(self, request, site, number):
+        version = MapVersion.objects.select_related("author").get(
+            site=self.site(site), number=number
+        )
+        return Response({**s.version_wire(version), "document": version.document})
+
+
 class RestoreView(MapView):
     @extend_schema(
         summary="Roll back: publish an older version again",

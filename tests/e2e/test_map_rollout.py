@@ -8,6 +8,9 @@ editor page does.
 * A map that cuts the route of a robot out delivering is refused while it drives, the delivery
   completes, the same map is published once the robot is home, and rolling back restores the
   map before it.
+* With the site's choice "re-plan", the same map is published while the robot drives: it is
+  posted a plan routed on the new map, takes the new map (map_version) at its next waypoint,
+  and delivers without a heartbeat refused for a code the server no longer knows.
 """
 
 import copy
@@ -46,23 +49,34 @@ class MapApi:
         assert response.status_code == 200, response.text
         return response.json()
 
-    def publish(self, document: dict, note: str) -> requests.Response:
+    def publish(self, document: dict, note: str, rollout: str = "refuse") -> requests.Response:
         revision = self.draft()["revision"]
-        body = {"revision": revision, "document": document, "rollout": "refuse"}
+        body = {"revision": revision, "document": document, "rollout": rollout}
         saved = self.session.put(f"{self.url}/draft", json=body, timeout=10)
         assert saved.status_code == 200, saved.text
         body = {"revision": saved.json()["revision"], "note": note}
         return self.session.post(f"{self.url}/draft/publish", json=body, timeout=30)
 
+    def version(self, number: int) -> dict:
+        """A version's site file: how the simulated robots fetch a map they are told of."""
+        response = self.session.get(f"{self.url}/versions/{number}", timeout=10)
+        assert response.status_code == 200, response.text
+        return response.json()["document"]
+
     def restore(self, number: int) -> requests.Response:
         return self.session.post(f"{self.url}/versions/{number}/restore", json={}, timeout=30)
 
 
-def fleet_of(stack, site, document: dict) -> Fleet:
+def fleet_of(stack, site, document: dict, map_source=None) -> Fleet:
     robot = factories.robot_create(site, "R1", dock=site.waypoints.get(code="1F-DOCK-1"))
     spec = RobotSpec(code=robot.code, token=robot.token, dock="1F-DOCK-1")
     config = FleetConfig(
-        server_url=stack.http_url, ws_url=stack.ws_url, site=document, robots=(spec,), speedup=25
+        server_url=stack.http_url,
+        ws_url=stack.ws_url,
+        site=document,
+        robots=(spec,),
+        speedup=25,
+        map_source=map_source,
     )
     return Fleet(config)
 
@@ -162,6 +176,44 @@ def test_a_map_cutting_a_driving_robots_route_waits_for_it_and_rolls_back(stack,
         assert site.map_version == 3
         assert "3F-CORR-MID" in site_map(site).waypoints
         assert "3F-CORR-MID-2" not in site_map(site).waypoints
+        assert fleet.errors == []
+        assert all(loop.refused == 0 for loop in fleet.loops)
+    finally:
+        fleet.stop()
+
+
+def test_a_map_cutting_a_driving_robots_route_replans_it_onto_the_new_map(stack, site, staff):
+    maps = MapApi(stack.http_url, staff.api_token_plain)
+    live = maps.draft()["document"]
+    fleet = fleet_of(stack, site, live, map_source=maps.version)
+    fleet.start()
+    try:
+        code = order(stack, staff, "1F-PHARM", "3F-WARD")
+        servers.poll(
+            lambda: status_of(code) == "picked_up",
+            timeout=90,
+            interval=0.1,
+            what="the robot on its way to the ward",
+        )
+
+        def published():
+            # Refused only while the robot drives to the waypoint removed (a moment at most).
+            response = maps.publish(without_the_corridor_middle(live), "corridor works", "replan")
+            assert response.status_code in (201, 409), response.text
+            return response if response.status_code == 201 else None
+
+        version = servers.poll(published, timeout=30, interval=0.2, what="the map published")
+
+        assert version.json()["replanned"] == ["R1"]
+        servers.poll(
+            lambda: status_of(code) == "completed",
+            timeout=150,
+            interval=0.2,
+            what="the delivery completed on the new map",
+        )
+        robot = fleet.robots[0]
+        assert robot.map_version == 2
+        assert "3F-CORR-MID-2" in robot.map.waypoints
         assert fleet.errors == []
         assert all(loop.refused == 0 for loop in fleet.loops)
     finally:
