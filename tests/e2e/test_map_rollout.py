@@ -23,7 +23,7 @@ from maps.models import MapVersion
 from robots.mapcache import site_map
 from robots.models import Site
 from robotsim.fleet import Fleet, FleetConfig, RobotSpec
-from robotsim.traffic import HttpTaskApi
+from robotsim.traffic import HttpMapSource, HttpTaskApi
 from scheduling.models import Task
 from tests import factories, servers
 
@@ -56,12 +56,6 @@ class MapApi:
         assert saved.status_code == 200, saved.text
         body = {"revision": saved.json()["revision"], "note": note}
         return self.session.post(f"{self.url}/draft/publish", json=body, timeout=30)
-
-    def version(self, number: int) -> dict:
-        """A version's site file: how the simulated robots fetch a map they are told of."""
-        response = self.session.get(f"{self.url}/versions/{number}", timeout=10)
-        assert response.status_code == 200, response.text
-        return response.json()["document"]
 
     def restore(self, number: int) -> requests.Response:
         return self.session.post(f"{self.url}/versions/{number}/restore", json={}, timeout=30)
@@ -185,7 +179,8 @@ def test_a_map_cutting_a_driving_robots_route_waits_for_it_and_rolls_back(stack,
 def test_a_map_cutting_a_driving_robots_route_replans_it_onto_the_new_map(stack, site, staff):
     maps = MapApi(stack.http_url, staff.api_token_plain)
     live = maps.draft()["document"]
-    fleet = fleet_of(stack, site, live, map_source=maps.version)
+    source = HttpMapSource(stack.http_url, staff.api_token_plain, "tiny")
+    fleet = fleet_of(stack, site, live, map_source=source)
     fleet.start()
     try:
         code = order(stack, staff, "1F-PHARM", "3F-WARD")
