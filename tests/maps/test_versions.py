@@ -250,3 +250,8 @@ def test_it_refuses_a_map_removing_the_waypoint_a_robot_is_driving_to_even_to_re
         "publish once it has passed"
     ]
     assert Site.objects.get(pk=site.pk).map_version == 1
+
+
+def test_it_exports_a_site_in_seven_queries_however_big(site, robot, django_assert_num_queries):
+    with django_assert_num_queries(7):
+        site_document(site)
