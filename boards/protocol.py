@@ -20,6 +20,7 @@ def heartbeat_reply_wire(reply) -> dict:
     return {
         "server_time": wire_time(reply.server_time),
         "heartbeat_interval": reply.heartbeat_interval,
+        "map_version": reply.map_version,  # an addition: robots learn of a new map here
         "messages": [message_wire(message) for message in reply.messages],
     }
 

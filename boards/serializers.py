@@ -235,4 +235,7 @@ BoardMessageSerializer = PolymorphicProxySerializer(
 class HeartbeatResponseSerializer(serializers.Serializer):
     server_time = serializers.DateTimeField()
     heartbeat_interval = serializers.FloatField(help_text="seconds until the next heartbeat")
+    map_version = serializers.IntegerField(
+        min_value=1, help_text="the site map's version; a new one is published by its administrator"
+    )
     messages = BoardMessageSerializer

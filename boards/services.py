@@ -52,6 +52,7 @@ class AppliedHeartbeat:
 class HeartbeatReply:
     server_time: datetime
     heartbeat_interval: float
+    map_version: int
     messages: list[BoardMessage]
 
 
@@ -94,6 +95,7 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
     return HeartbeatReply(
         server_time=now,
         heartbeat_interval=interval,
+        map_version=robot.site.map_version,
         messages=board_pending(robot=robot),
     )
 

@@ -63,3 +63,21 @@ def operator_required(view):
         return view(request, *args, **kwargs)
 
     return guarded
+
+
+def is_admin(user) -> bool:
+    """Administrators manage the sites' maps: staff users (they also reach the Django admin)."""
+    return user.is_authenticated and user.is_staff
+
+
+def admin_required(view):
+    """Log in first (redirect), then 403 for anyone but an administrator."""
+
+    @login_required
+    @wraps(view)
+    def guarded(request, *args, **kwargs):
+        if not is_admin(request.user):
+            raise PermissionDenied("only administrators may manage the site's map")
+        return view(request, *args, **kwargs)
+
+    return guarded

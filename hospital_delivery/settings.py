@@ -66,6 +66,7 @@ INSTALLED_APPS = [
     "boards",
     "resources",
     "scheduling",
+    "maps",
     "ui",
     "reports",
     "webhooks",

@@ -17,6 +17,7 @@ urlpatterns = [
     path("api/v1/", include("boards.urls")),
     path("api/v1/", include("robots.urls")),
     path("api/v1/", include("scheduling.urls")),
+    path("api/v1/", include("maps.urls")),
     path("api/schema/", SpectacularAPIView.as_view(), name="schema"),
     path("api/docs/", login_required(api_docs), name="api-docs"),
     # Pages for nurses and operators (ui/), and their login

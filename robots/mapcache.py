@@ -134,3 +134,12 @@ def _resources(site: Site, codes_by_id: dict[int, str]) -> list[MapResource]:
         )
         for r in Resource.objects.filter(site=site)
     ]
+
+
+def site_map_forget(site_id: int) -> None:
+    """Drop what this process cached of a site: a map read inside a transaction that then
+    rolled back (a refused publication) must not pass for the next map of the same version."""
+    with _cache_lock:
+        _cache.pop(site_id, None)
+        _routers.pop(site_id, None)
+        _by_id.pop(site_id, None)

@@ -96,16 +96,23 @@ def site_file_read(path: str | Path) -> dict:
     OSError (missing, unreadable) propagates unchanged.
     """
     path = Path(path)
-    parse = _PARSERS.get(path.suffix.lower())
-    if parse is None:
+    if path.suffix.lower() not in _PARSERS:
         raise SiteFileInvalid([f"{path.name}: expected a .yaml, .yml or .json file"])
-    text = path.read_text(encoding="utf-8")
+    return site_file_parse(path.read_text(encoding="utf-8"), name=path.name)
+
+
+def site_file_parse(text: str, *, name: str) -> dict:
+    """The parsed text of a file called `name` (.json is JSON, anything else YAML, of which
+    JSON is a subset); SiteFileInvalid if it is not one or does not hold a mapping."""
+    suffix = Path(name).suffix.lower()
+    parse = _PARSERS.get(suffix, _yaml)
     try:
         data = parse(text)
     except (yaml.YAMLError, ValueError) as exc:
-        raise SiteFileInvalid([f"{path.name}: not valid {path.suffix[1:]}: {exc}"]) from None
+        kind = suffix[1:] if suffix in _PARSERS else "YAML"
+        raise SiteFileInvalid([f"{name}: not valid {kind}: {exc}"]) from None
     if not isinstance(data, dict):
-        raise SiteFileInvalid([f"{path.name}: the file must hold a mapping (site, floors, ...)"])
+        raise SiteFileInvalid([f"{name}: the file must hold a mapping (site, floors, ...)"])
     return data
 
 

@@ -129,6 +129,8 @@ class RobotClient:
         self.boot_id = boot_id or str(uuid.uuid4())
         self.seq = 0
         self.heartbeat_interval = 1.0
+        self.map_version: int | None = None  # as the server's answers name it
+        self._map_handlers: list[Callable[[int], None]] = []
         self.plan_version = 0
         self.state: dict = {"status": "idle", "battery": 1.0, "load": 0, "errors": []}
         self._events: list[dict] = []
@@ -233,7 +235,21 @@ class RobotClient:
                 raise RefusedError(status, reply, body)
             self._answered(body)
             self.heartbeat_interval = float(reply.get("heartbeat_interval", 1.0))
+            self._map_version_heard(reply.get("map_version"))
             return self._receive(reply.get("messages", []))
+
+    def on_map_version(self, handler: Callable[[int], None]) -> None:
+        """Call handler(version) whenever an answer names another map version than before."""
+        self._map_handlers.append(handler)
+
+    def _map_version_heard(self, version) -> None:
+        """Before the messages of the same answer: a plan posted with a new map is routed on it
+        (docs/robot-protocol.md, "Map versions")."""
+        if not isinstance(version, int) or version == self.map_version:
+            return
+        self.map_version = version
+        for handler in self._map_handlers:
+            handler(version)
 
     def _body(self) -> dict:
         return {

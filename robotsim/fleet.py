@@ -14,10 +14,11 @@ import logging
 import random
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from robots.router import Router, site_map_from_file
+from robots.router import Router, SiteMap, site_map_from_file
 from robotsim.client import RobotClient, listen_for_wakes
 from robotsim.network import LossyTransport, NetworkModel, NetworkStats
 from robotsim.simulator import Behaviour, RealClock, RobotLoop, SimRobot
@@ -49,6 +50,9 @@ class FleetConfig:
     traffic_token: str | None = None
     secure_share: float = 0.0  # of the medication deliveries, secure (locked, PIN)
     badges: dict[str, str] = field(default_factory=dict)  # station -> a unit user's badge id
+    # The site file of a map version the server announces (map_version), however the robots
+    # fetch it; None: they keep the map they were given.
+    map_source: Callable[[int], dict | None] | None = None
 
 
 def fleet_file_read(path: str | Path) -> dict:
@@ -65,6 +69,8 @@ class Fleet:
         self._check_dead_zones(config.network.dead_zones)
         self.clock = RealClock(config.speedup)
         self.router = Router(self.site_map)  # shared: its searches are cached per source
+        self._maps: dict[int, tuple[SiteMap, Router]] = {}  # announced versions, loaded once
+        self._maps_lock = threading.Lock()
         self.traffic = self._traffic()
         self.robots = [self._robot(spec) for spec in config.robots]
         self.loops = [RobotLoop(robot) for robot in self.robots]
@@ -95,9 +101,21 @@ class Fleet:
             compartments=self._compartments(spec.code),
             pins=self.traffic.pins.get if self.traffic else (lambda task: None),
             badges=self.config.badges.get,
+            maps=self._map_of if self.config.map_source else None,
         )
         transport.connected = robot.connected
         return robot
+
+    def _map_of(self, version: int) -> tuple[SiteMap, Router] | None:
+        """Map version `version` and its router, shared by the fleet, fetched once."""
+        with self._maps_lock:
+            if version not in self._maps:
+                document = self.config.map_source(version)
+                if document is None:
+                    return None
+                site_map = site_map_from_file(document)
+                self._maps[version] = (site_map, Router(site_map))
+            return self._maps[version]
 
     def _compartments(self, code: str) -> list[dict]:
         """The robot's compartments as the site file declares them (none: an older robot)."""

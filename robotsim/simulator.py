@@ -184,8 +184,14 @@ class SimRobot:
         compartments: list[dict] = (),
         pins: Callable[[str], str | None] = lambda task: None,
         badges: Callable[[str], str | None] = lambda station: None,
+        maps: Callable[[int], tuple[SiteMap, Router] | None] | None = None,
     ):
         self.client = client
+        # A new map version announced in a heartbeat answer (map_version) is taken from `maps`
+        # (however the robot fetches its site file) at the next waypoint both maps have.
+        self.maps = maps
+        self.map_version: int | None = None  # of the map it drives on; None: the one given
+        self._map_wanted: int | None = None
         self.lockable = [c["code"] for c in compartments if c.get("lockable")]
         self.locked: dict[str, str] = {}  # task -> the compartment its items are locked in
         self.pins = pins
@@ -222,6 +228,7 @@ class SimRobot:
         self._waiting: Sleep | Until | None = None
         self._wake_at: float | None = None
         self._program = self._run()
+        client.on_map_version(self._on_map_version)
         client.on("plan", self._on_plan)
         client.on("resource_grant", self._on_grant)
         client.on("action", self._on_action)
@@ -338,11 +345,29 @@ class SimRobot:
         else:
             yield from self._ride(hop)
 
+    def _on_map_version(self, version: int) -> None:
+        self._map_wanted = version
+
+    def _map_adopt(self) -> None:
+        """Drive on the newest map from here on, if it has this waypoint (a robot is never
+        handed a new map in the middle of a hop)."""
+        wanted = self._map_wanted
+        if self.maps is None or wanted is None or wanted == self.map_version or self._motion:
+            return
+        loaded = self.maps(wanted)
+        if loaded is None or self.waypoint not in loaded[0].waypoints:
+            return
+        self.map, self.router = loaded
+        self._edges = _edge_index(self.map)
+        self.map_version = wanted
+        logger.info("%s: now on map version %d", self.code, wanted)
+
     def _hop(self, target: str) -> _Hop | None:
         """The next hop of the shortest path from here to `target` on the robot's own map.
 
         Plans' `via` points are not needed: with its own map the robot finds the same rides.
         """
+        self._map_adopt()
         path = self.router.leg(self.waypoint, target).path
         if len(path) < 2:
             return None

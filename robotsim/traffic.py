@@ -192,6 +192,27 @@ class HttpTaskApi:
             return response.status_code, {"error": response.text[:200]}
 
 
+class HttpMapSource:
+    """A published map version's site file from the map API (maps/views.py), with a staff
+    user's token: how the simulated robots fetch the map a heartbeat answer announces. Real
+    robots fetch theirs however their integrators chose; None on any failure (tried again at
+    the robot's next waypoint)."""
+
+    def __init__(self, server_url: str, token: str, site: str, *, timeout: float = 10.0):
+        self.url = f"{server_url.rstrip('/')}/api/v1/maps/{site}/versions/"
+        self.session = requests.Session()
+        self.session.headers["Authorization"] = f"Bearer {token}"
+        self.timeout = timeout
+
+    def __call__(self, version: int) -> dict | None:
+        try:
+            response = self.session.get(f"{self.url}{version}", timeout=self.timeout)
+            document = response.json().get("document") if response.status_code == 200 else None
+        except (requests.RequestException, ValueError, AttributeError):
+            return None
+        return document if isinstance(document, dict) else None
+
+
 class TrafficGenerator:
     """Random requests at `rate` per simulated hour (a Poisson stream), for a live fleet."""
 

@@ -1,6 +1,6 @@
 from django.urls import path
 
-from ui import custody, deliveries, fleet, recurring, stations
+from ui import custody, deliveries, fleet, maps, recurring, stations
 from ui.live import state
 
 urlpatterns = [
@@ -18,4 +18,12 @@ urlpatterns = [
     path("leases/<str:lease_id>/release", fleet.lease_release_post, name="lease-release"),
     path("alerts/<int:pk>/acknowledge", fleet.alert_acknowledge_post, name="alert-acknowledge"),
     path("live/<str:site>/state.json", state.state, name="live-state"),
+    path("maps/<str:site>/edit", maps.map_editor, name="map-editor"),
+    path("maps/<str:site>/history", maps.map_history, name="map-history"),
+    path("maps/<str:site>/versions/<int:number>.yaml", maps.map_export, name="map-export"),
+    path(
+        "maps/<str:site>/versions/<int:number>/restore",
+        maps.map_restore_post,
+        name="map-restore-page",
+    ),
 ]

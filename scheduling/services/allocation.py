@@ -252,6 +252,12 @@ def task_make_due(*, task_id: int, now: datetime) -> bool:
     return bool(claimed)
 
 
+def allocation_lock_take(site_id: int) -> Site:
+    """Hold the site's allocation lock for the rest of the transaction, so that no allocation
+    plans on the site's map meanwhile (a map being published: maps.services)."""
+    return _allocation_lock(site_id)
+
+
 def _allocation_lock(site_id: int, *, wait: bool = True) -> Site | None:
     """Lock the site's allocation lock row for the rest of the transaction; return the site.
 

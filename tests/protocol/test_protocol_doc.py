@@ -443,7 +443,7 @@ def test_it_answers_every_documented_heartbeat_as_the_document_says(client, eulj
             )
             continue
         assert status == 200, f"{block}: answered {status} {answer}"
-        assert set(answer) == {"server_time", "heartbeat_interval", "messages"}
+        assert set(answer) == {"server_time", "heartbeat_interval", "map_version", "messages"}
         # The document's rule for stale heartbeats: the server keeps the newest state only.
         boot, seq = body["boot_id"], body["seq"]
         if newest is not None and boot == newest["boot_id"]:
@@ -508,6 +508,8 @@ def test_it_validates_every_response_with_the_servers_documentation_serializer(e
         assert answer["server_time"].endswith("Z"), f"{block}: server_time is sent in UTC"
         fields["heartbeat_interval"].run_validation(answer["heartbeat_interval"])
         assert answer["heartbeat_interval"] == eulji.heartbeat_interval, str(block)
+        fields["map_version"].run_validation(answer["map_version"])
+        assert answer["map_version"] == eulji.map_version, str(block)
         assert isinstance(answer["messages"], list), str(block)
 
 

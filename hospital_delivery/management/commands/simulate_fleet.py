@@ -15,6 +15,7 @@ from robots.sitefile import SiteFileInvalid, site_file_read
 from robotsim.fleet import Fleet, FleetConfig, RobotSpec, fleet_file_read
 from robotsim.network import NetworkModel
 from robotsim.simulator import Behaviour
+from robotsim.traffic import HttpMapSource
 
 
 def _pair(text: str) -> tuple[float, float]:
@@ -135,7 +136,14 @@ class Command(BaseCommand):
             traffic_token=file.get("traffic_token"),
             secure_share=options["secure_share"],
             badges=dict(file.get("badges", {})),
+            map_source=self._maps(file, options, site),
         )
+
+    def _maps(self, file: dict, options, site: dict) -> HttpMapSource | None:
+        """New map versions, fetched over the API with the fleet file's staff token."""
+        token = file.get("traffic_token")
+        server = options["server"] or file["server_url"]
+        return HttpMapSource(server, token, site["site"]) if token else None
 
     def _robots(self, file: dict, wanted: str | None) -> tuple[RobotSpec, ...]:
         robots = [RobotSpec(r["code"], r["token"], r["dock"]) for r in file["robots"]]
