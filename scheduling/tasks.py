@@ -31,3 +31,8 @@ def recurring_sweep() -> None:
 @shared_task
 def unload_timeout_sweep() -> None:
     sweep_report("unload timeouts", {"drop-offs overdue": services.unload_timeout_sweep()})
+
+
+@shared_task(autoretry_for=(OperationalError,), retry_backoff=True, max_retries=5)
+def site_reroute(site_id: int, resource: str = "") -> None:
+    services.site_reroute(site_id=site_id)

@@ -17,6 +17,7 @@ class AlertKind(models.TextChoices):
     COMPARTMENT_LOCKED = "compartment_locked", "Compartment kept locked after wrong PINs"
     UNLOAD_TIMEOUT = "unload_timeout", "Nobody unloaded a robot waiting at a drop-off"
     DEADLINE_AT_RISK = "deadline_at_risk", "Delivery will be late"
+    RESOURCE_OUT_OF_SERVICE = "resource_out_of_service", "Elevator, door or corridor out of service"
 
 
 class AlertQuerySet(models.QuerySet):
