@@ -59,7 +59,9 @@ def device_follow_lease(*, lease: Lease, resource: Resource) -> Device | None:
         floor_id = lease.to_floor_id or floor_id  # to the destination, doors to open there
     elif device.session == lease.public_id:  # the lease it served ended
         session, door = "", DoorState.CLOSED
-    _request(device, session=session, floor_id=floor_id, door=door, now=timezone.now())
+    # The lease's own time of the change: the heartbeat's, or the sweep's (time is driven).
+    now = lease.ended_at or lease.entered_at or lease.granted_at or timezone.now()
+    _request(device, session=session, floor_id=floor_id, door=door, now=now)
     return device
 
 
@@ -220,7 +222,6 @@ def sim_step(*, device: Device, now: datetime) -> bool:
         door=device.door,
         motion=device.motion if device.motion != Motion.UNKNOWN else Motion.STOPPED,
         since=device.state_since,
-        opening=device.wants_door_open,
     )
     target = levels.get(device.requested_floor_id)
     after = sim_advance(

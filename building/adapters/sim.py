@@ -25,7 +25,6 @@ class SimState:
     door: str  # closed, moving, open
     motion: str  # stopped, up, down
     since: datetime  # when the current door or car motion began
-    opening: bool = False  # while door == moving: opening (else closing)
 
 
 def sim_advance(
@@ -52,12 +51,13 @@ def _next(state: SimState, *, target, door_open, spf) -> tuple[datetime, SimStat
     """The next transition (when it happens, the state after), or None if at rest."""
     spf = max(spf, MIN_SECONDS_PER_FLOOR)
     door_done = state.since + timedelta(seconds=DOOR_SECONDS)
-    if state.door == MOVING:
-        return door_done, replace(state, door=OPEN if state.opening else CLOSED, since=door_done)
     must_move = state.level is not None and target is not None and state.level != target
+    if state.door == MOVING:  # which way follows from what is asked now
+        opened = door_open and not must_move
+        return door_done, replace(state, door=OPEN if opened else CLOSED, since=door_done)
     if must_move:
         if state.door == OPEN:  # close first; start closing now
-            return state.since, replace(state, door=MOVING, opening=False, since=state.since)
+            return state.since, replace(state, door=MOVING)
         step = 1 if target > state.level else -1
         if state.motion == STOPPED:
             motion = UP if step > 0 else DOWN
@@ -72,8 +72,6 @@ def _next(state: SimState, *, target, door_open, spf) -> tuple[datetime, SimStat
         )
     if state.motion != STOPPED:
         return state.since, replace(state, motion=STOPPED)
-    if door_open and state.door == CLOSED:
-        return state.since, replace(state, door=MOVING, opening=True)
-    if not door_open and state.door == OPEN:
-        return state.since, replace(state, door=MOVING, opening=False)
+    if door_open and state.door == CLOSED or not door_open and state.door == OPEN:
+        return state.since, replace(state, door=MOVING)
     return None

@@ -5,7 +5,6 @@ from django.test import Client
 from django.utils import timezone
 
 from building.models import Device
-
 from tests import factories
 from tests.factories import lease_acquire
 from tests.resources.conftest import acquire, resource
@@ -45,9 +44,7 @@ def lift(site):
     )
 
 
-def test_it_grants_an_acquire_in_thirteen_queries(
-    post_heartbeat, lift, django_assert_num_queries
-):
+def test_it_grants_an_acquire_in_thirteen_queries(post_heartbeat, lift, django_assert_num_queries):
     with django_assert_num_queries(GRANT_QUERIES):
         messages = post_heartbeat(requests=[acquire("ELEV", to_floor="2F")])
 
