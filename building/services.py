@@ -81,6 +81,15 @@ def _at_rest(device: Device) -> bool:
     return device.motion == Motion.STOPPED and device.door != DoorState.MOVING
 
 
+def devices_ensure(*, site) -> int:
+    """A device for each elevator and door of `site` (the demo's set-up: panels from the
+    start); returns how many were made."""
+    if settings.BUILDING_ADAPTER == "none":
+        return 0
+    missing = Resource.objects.filter(site=site, kind__in=DRIVEN_KINDS, device__isnull=True)
+    return sum(1 for resource in missing if _device(resource))
+
+
 def _device(resource: Resource) -> Device:
     device = Device.objects.filter(resource=resource).first()
     if device is not None:
