@@ -220,39 +220,63 @@ def building_sweep(*, now: datetime | None = None) -> dict[str, int]:
 
 def sim_sweep(*, now: datetime) -> int:
     devices = Device.objects.filter(adapter=AdapterKind.SIM).select_related("resource")
-    return sum(sim_step(device=device, now=now) for device in devices)
+    floors: dict[int, dict[int, tuple[str, int]]] = {}  # per site, read once per sweep
+    changed = 0
+    for device in devices:
+        site_id = device.resource.site_id
+        if site_id not in floors:
+            floors[site_id] = _floors(site_id)
+        changed += sim_step(device=device, now=now, floors=floors[site_id])
+    return changed
 
 
-def sim_step(*, device: Device, now: datetime) -> bool:
-    """Advance a simulated device to `now` and report its state; True if it changed."""
-    levels = _levels(device.resource)
+def sim_step(*, device: Device, now: datetime, floors=None) -> bool:
+    """Advance a simulated device to `now` and report its state; True if it changed.
+
+    A device at rest whose robot has been told where the car is only notes that it was heard
+    from (one UPDATE, no lock): the sweep runs every second."""
+    floors = floors if floors is not None else _floors(device.resource.site_id)
+    levels = {pk: level for pk, (_code, level) in floors.items()}
     state = SimState(
         level=levels.get(device.current_floor_id),
         door=device.door,
         motion=device.motion if device.motion != Motion.UNKNOWN else Motion.STOPPED,
         since=device.state_since,
     )
-    target = levels.get(device.requested_floor_id)
     after = sim_advance(
         state,
-        target=target,
+        target=levels.get(device.requested_floor_id),
         door_open=device.wants_door_open,
         now=now,
         seconds_per_floor=device.resource.seconds_per_floor,
     )
-    if after.since != device.state_since:
-        Device.objects.filter(pk=device.pk).update(state_since=after.since)
-    floor = next(
-        (
-            code
-            for code, pk in _floor_codes(device.resource).items()
-            if levels.get(pk) == after.level
-        ),
-        None,
-    )
+    if after == state and not _announce_due(device):
+        Device.objects.filter(pk=device.pk).update(reported_at=now)
+        return False
+    # Claimed against the request it was computed for: a new request meanwhile (a lease
+    # changed) is simulated on the next pass instead.
+    claimed = Device.objects.filter(pk=device.pk, request_seq=device.request_seq)
+    if not claimed.update(state_since=after.since):
+        return False
+    floor = next((code for pk, (code, level) in floors.items() if level == after.level), None)
     report = Report(door=after.door, floor=floor, motion=after.motion, session=device.session)
     device_report(device=device, report=report, now=now)
     return after != state
+
+
+def _announce_due(device: Device) -> bool:
+    """A lift serving a lease whose robot has not been told of the car's current stop."""
+    stop = f"{device.session}@{device.current_floor_id}"
+    return device.resource.is_elevator and bool(device.session) and device.announced != stop
+
+
+def _floors(site_id: int) -> dict[int, tuple[str, int]]:
+    return {
+        pk: (code, level)
+        for pk, code, level in Floor.objects.filter(site_id=site_id).values_list(
+            "pk", "code", "level"
+        )
+    }
 
 
 def silence_sweep(*, now: datetime) -> int:
@@ -267,16 +291,6 @@ def silence_sweep(*, now: datetime) -> int:
         reason = f"{device.resource.code} has not reported since {since:%H:%M:%S}"
         taken += resource_take_out_of_service(resource=device.resource, reason=reason, now=now)
     return taken
-
-
-def _levels(resource: Resource) -> dict[int, int]:
-    floors = Floor.objects.filter(site_id=resource.site_id)
-    return dict(floors.values_list("pk", "level"))
-
-
-def _floor_codes(resource: Resource) -> dict[str, int]:
-    floors = Floor.objects.filter(site_id=resource.site_id)
-    return dict(floors.values_list("code", "pk"))
 
 
 def _publish(device: Device) -> None:
