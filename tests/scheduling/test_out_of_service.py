@@ -11,6 +11,7 @@ from boards.models import BoardMessage
 from resources.choices import LeaseState
 from robots.mapcache import router_for
 from robots.models import Resource
+from scheduling import tasks as celery_tasks
 from scheduling.choices import ResourceActionKind, TaskStatus
 from scheduling.models import OperatorAction
 from scheduling.services import resource_operator_set_service, site_reroute
@@ -127,3 +128,18 @@ def test_it_changes_nothing_taking_out_a_resource_already_out(site, operator):
     lift.refresh_from_db()
     assert lift.out_of_service_reason == "a"
     assert OperatorAction.objects.count() == 1
+
+
+def test_taking_a_lift_out_asks_a_worker_to_reroute_after_commit(
+    site, operator, monkeypatch, django_capture_on_commit_callbacks
+):
+    sent = []
+    monkeypatch.setattr(celery_tasks.site_reroute, "delay", lambda *args: sent.append(args))
+    with django_capture_on_commit_callbacks(execute=False) as callbacks:
+        resource_operator_set_service(
+            resource=elevator(site), in_service=False, by=operator, reason="x"
+        )
+    assert sent == []  # nothing before the commit: robot rows are locked before resources
+    for callback in callbacks:
+        callback()
+    assert sent == [(site.pk, "ELEV")]
