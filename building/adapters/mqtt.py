@@ -49,13 +49,14 @@ def stamp(moment: datetime) -> dict:
 
 
 def lift_request(*, name: str, session: str, floor: str | None, door: str, now: datetime) -> dict:
-    """A LiftRequest: in AGV mode (doors held open while stopped) to `floor` for `session`,
-    or END_SESSION when nobody is served."""
+    """A LiftRequest: in AGV mode (doors held open while stopped) to `floor` for `session`
+    (or for an operator holding the doors), else END_SESSION: nobody is served."""
+    held = bool(session) or door == DoorState.OPEN
     return {
         "lift_name": name,
         "request_time": stamp(now),
-        "session_id": session,
-        "request_type": REQUEST_AGV_MODE if session else REQUEST_END_SESSION,
+        "session_id": session or (REQUESTER if held else ""),
+        "request_type": REQUEST_AGV_MODE if held else REQUEST_END_SESSION,
         "destination_floor": floor or "",
         "door_state": DOOR_CODES[DoorState.OPEN if door == DoorState.OPEN else DoorState.CLOSED],
     }
