@@ -18,6 +18,7 @@ from building.adapters import mqtt as wire
 from building.choices import AdapterKind
 from building.models import Device
 from building.services import Report, device_report
+from robots.models import Floor
 
 logger = logging.getLogger(__name__)
 
@@ -86,6 +87,8 @@ class MqttBridge:
                 report = Report(**wire.lift_state_read(payload, name))
             else:
                 report = Report(**wire.door_state_read(payload, name))
+            if report.floor is not None and not _floor_known(device, report.floor):
+                raise wire.StateInvalid(f"current_floor: no floor {report.floor!r} at this site")
         except wire.StateInvalid as invalid:
             self.counts.invalid += 1
             self.counts.reasons.append(f"{topic}: {invalid}")
@@ -147,3 +150,7 @@ class MqttBridge:
 
 def wire_json(body: dict) -> bytes:
     return json.dumps(body, separators=(",", ":")).encode()
+
+
+def _floor_known(device: Device, code: str) -> bool:
+    return Floor.objects.filter(site_id=device.resource.site_id, code=code).exists()

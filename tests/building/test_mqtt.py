@@ -150,6 +150,7 @@ def test_bad_states_are_counted_and_change_nothing(site, prefix, controller, bri
         lift_state(motion_state="up"),
         lift_state(current_floor=None),
         lift_state(session_id=3),
+        lift_state(current_floor="99F"),  # no such floor at the site
     ]
     for n, payload in enumerate(bad, start=1):
         publish_state(controller, bridge, states, payload, expect="invalid")
