@@ -8,6 +8,10 @@ class MessageType(models.TextChoices):
     RESOURCE_GRANT = "resource_grant", "Resource grant"
     RESOURCE_QUEUED = "resource_queued", "Resource queued"
     ACTION = "action", "Action"
+    # Additions (docs/robot-protocol.md): the server's building devices and resources' service.
+    RESOURCE_OUT_OF_SERVICE = "resource_out_of_service", "Resource out of service"
+    RESOURCE_IN_SERVICE = "resource_in_service", "Resource back in service"
+    ELEVATOR_AT_FLOOR = "elevator_at_floor", "Elevator stopped at a floor"
 
 
 class EventType(models.TextChoices):

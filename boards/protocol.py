@@ -103,3 +103,20 @@ def queued_body(*, request: str, resource: str, position: int) -> dict:
 def action_body(*, action: str) -> dict:
     """`action`: pause, resume or return_to_dock, from an operator."""
     return {"action": action}
+
+
+def out_of_service_body(*, resource: str, since: datetime, reason: str) -> dict:
+    """`resource_out_of_service` (an addition): nobody is granted `resource` until a
+    `resource_in_service`; a robot that can go another way should."""
+    return {"resource": resource, "since": wire_time(since), "reason": reason}
+
+
+def in_service_body(*, resource: str) -> dict:
+    """`resource_in_service` (an addition): `resource` is granted again, in queue order."""
+    return {"resource": resource}
+
+
+def elevator_at_floor_body(*, resource: str, lease: str, floor: str, doors: str) -> dict:
+    """`elevator_at_floor` (an addition): the car of the robot's lease has stopped at `floor`
+    with its doors `doors` ("open"): what a robot in the cabin cannot see for itself."""
+    return {"resource": resource, "lease": lease, "floor": floor, "doors": doors}

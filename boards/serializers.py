@@ -219,6 +219,29 @@ class ActionMessageSerializer(serializers.Serializer):
     action = serializers.ChoiceField(choices=["pause", "resume", "return_to_dock"])
 
 
+class ResourceOutOfServiceMessageSerializer(serializers.Serializer):
+    id = serializers.CharField()
+    type = serializers.ChoiceField(choices=[MessageType.RESOURCE_OUT_OF_SERVICE])
+    resource = serializers.CharField()
+    since = serializers.DateTimeField()
+    reason = serializers.CharField(allow_blank=True)
+
+
+class ResourceInServiceMessageSerializer(serializers.Serializer):
+    id = serializers.CharField()
+    type = serializers.ChoiceField(choices=[MessageType.RESOURCE_IN_SERVICE])
+    resource = serializers.CharField()
+
+
+class ElevatorAtFloorMessageSerializer(serializers.Serializer):
+    id = serializers.CharField()
+    type = serializers.ChoiceField(choices=[MessageType.ELEVATOR_AT_FLOOR])
+    resource = serializers.CharField()
+    lease = serializers.CharField()
+    floor = serializers.CharField()
+    doors = serializers.ChoiceField(choices=["open"])
+
+
 BoardMessageSerializer = PolymorphicProxySerializer(
     component_name="BoardMessage",
     serializers={
@@ -226,6 +249,9 @@ BoardMessageSerializer = PolymorphicProxySerializer(
         MessageType.RESOURCE_GRANT.value: ResourceGrantMessageSerializer,
         MessageType.RESOURCE_QUEUED.value: ResourceQueuedMessageSerializer,
         MessageType.ACTION.value: ActionMessageSerializer,
+        MessageType.RESOURCE_OUT_OF_SERVICE.value: ResourceOutOfServiceMessageSerializer,
+        MessageType.RESOURCE_IN_SERVICE.value: ResourceInServiceMessageSerializer,
+        MessageType.ELEVATOR_AT_FLOOR.value: ElevatorAtFloorMessageSerializer,
     },
     resource_type_field_name="type",
     many=True,

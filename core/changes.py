@@ -14,6 +14,7 @@ ROBOT = "robot"  # subject: the Robot (its site loaded), after the change
 TASK = "task"  # subject: the TaskTransition just recorded (its task as changed)
 LEASE = "lease"  # subject: the Lease; detail: resource=its Resource
 ALERT = "alert"  # subject: the Alert just raised
+RESOURCE = "resource"  # subject: the Resource (its service, or its building device's state)
 ALERT_ACKNOWLEDGED = "alert_acknowledged"  # subject: the Alert
 ETAS = "etas"  # subject: the Tasks whose ETAs a robot's progress just changed
 

@@ -14,10 +14,12 @@ from django.db.backends.signals import connection_created
 
 from boards import push
 from boards.hooks import heartbeat_applied
+from building import receivers as building
 from core import watchdog
 from core.changes import changed
 from hospital_delivery import privatefiles
 from resources import receivers as resources
+from resources.hooks import availability_changed, lease_changed
 from robots.hooks import presence_changed, token_issued
 from scheduling import receivers as scheduling
 from ui.live import publish
@@ -31,6 +33,11 @@ def connect() -> None:
     heartbeat_applied.connect(resources.on_heartbeat_applied, scheduling.on_heartbeat_applied)
     # A robot gone offline leaves the lease queues it waits in, then gives back its tasks.
     presence_changed.connect(resources.on_presence_changed, scheduling.on_presence_changed)
+    # A lease that changes drives its resource's lift or door: called to the robot's floor on
+    # a grant, sent to its destination once it is inside, doors closed after it has left.
+    lease_changed.connect(building.on_lease_changed)
+    # A resource out of or back in service: routes are planned again (after commit).
+    availability_changed.connect(scheduling.on_availability_changed)
     # A robot's new token closes the push sockets opened with its old one.
     token_issued.connect(push.robot_sockets_close)
     # Whatever changed that people can see goes to the site's live pages after commit.

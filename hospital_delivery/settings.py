@@ -65,6 +65,7 @@ INSTALLED_APPS = [
     "robots",
     "boards",
     "resources",
+    "building",
     "scheduling",
     "maps",
     "ui",
@@ -298,6 +299,17 @@ SWEEP_SECONDS = env_int("SWEEP_SECONDS", 1, minimum=1)
 # Webhook deliveries whose retry time came (or whose Celery message was lost) are sent by a sweep.
 WEBHOOK_SWEEP_SECONDS = env_int("WEBHOOK_SWEEP_SECONDS", 5, minimum=1)
 
+# The building's lifts and doors (building/): "sim" drives simulated ones (the demo, tests),
+# "mqtt" a building integrator's controller over MQTT (docs/building-devices.md), "none" none.
+BUILDING_ADAPTER = env_str("BUILDING_ADAPTER", "sim")
+if BUILDING_ADAPTER not in ("sim", "mqtt", "none"):
+    raise ImproperlyConfigured("BUILDING_ADAPTER must be sim, mqtt or none")
+# A device silent this long (seconds) is taken out of service.
+BUILDING_REPORT_TIMEOUT = env_int("BUILDING_REPORT_TIMEOUT", 10, minimum=1)
+BUILDING_MQTT_HOST = env_str("BUILDING_MQTT_HOST", "127.0.0.1")
+BUILDING_MQTT_PORT = env_int("BUILDING_MQTT_PORT", 1883, minimum=1)
+BUILDING_MQTT_PREFIX = env_str("BUILDING_MQTT_PREFIX", "hospital_delivery/building")
+
 
 def _sweep(task: str, every: float) -> dict:
     return {"task": task, "schedule": every, "options": {"expires": every * 5}}
@@ -314,6 +326,7 @@ CELERY_BEAT_SCHEDULE = {
     # Stores the reports' figures of each settled day (reports/rollups.py); cheap when there
     # is nothing new, and at this interval the watchdog sees it run soon after a start.
     "reports-rollup-sweep": _sweep("reports.tasks.rollup_sweep", 30),
+    "building-sweep": _sweep("building.tasks.building_sweep", SWEEP_SECONDS),
 }
 
 LOG_LEVEL = env_str("LOG_LEVEL", "INFO")

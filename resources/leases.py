@@ -10,6 +10,8 @@ Elevators, doors and corridors are shared through leases (resources.models.Lease
 * One holder per unit of capacity; holders are granted or entered leases. Waiting leases are
   served first-come first-served by arrival at the server: every lease of a resource is created
   and changed with that Resource row locked, so lease pk order is arrival order.
+* A resource out of service (resources/availability.py) is granted to nobody: its requests
+  queue, and are served in order once it is back in service.
 * A robot inside keeps its lease while silent; past the site's hard limit operators are alerted
   and nothing is handed over: only the robot itself or an administrator ends it.
 
@@ -33,6 +35,7 @@ from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.services import AppliedHeartbeat, HeartbeatRejected, board_post, board_withdraw
 from core import changes
 from resources.choices import LeaseEndCause, LeaseState
+from resources.hooks import lease_changed
 from resources.metrics import lease_wait_observe
 from resources.models import Lease
 from robots.alerts import alert_acknowledge, alert_raise
@@ -327,6 +330,8 @@ def _acquire(*, robot: Robot, resource: Resource, request_id: str, to_floor, now
     lease.save()
     position = sum(each.state == LeaseState.QUEUED for each in live) + 1
     _board_sync(lease, resource=resource, position=position, fresh=True)
+    if not resource.in_service:  # queued: the robot hears why, and may go another way
+        out_of_service_tell(lease.robot, resource)
     _publish(lease, resource)
     return lease
 
@@ -471,12 +476,46 @@ def _queued_body(lease: Lease, resource: Resource, position: int) -> dict:
     return protocol.queued_body(request=lease.request_id, resource=resource.code, position=position)
 
 
+def out_of_service_tell(robot: Robot, resource: Resource) -> None:
+    """Post `robot` the resource's service state (one message per robot and resource: the
+    newest replaces one not acked yet)."""
+    if resource.in_service:
+        type, body = (
+            MessageType.RESOURCE_IN_SERVICE,
+            protocol.in_service_body(resource=resource.code),
+        )
+    else:
+        type = MessageType.RESOURCE_OUT_OF_SERVICE
+        body = protocol.out_of_service_body(
+            resource=resource.code,
+            since=resource.out_of_service_since,
+            reason=resource.out_of_service_reason,
+        )
+    board_post(robot=robot, type=type, body=body, key=f"service:{resource.pk}", supersede=True)
+
+
 def _publish(lease: Lease, resource: Resource) -> None:
     site_id = resource.site_id
     changes.changed(kind=changes.LEASE, site_id=site_id, subject=lease, resource=resource)
+    lease_changed(lease=lease, resource=resource)
 
 
 # --- Helpers ------------------------------------------------------------------------------------
+
+
+def resource_lock(pk: int) -> Resource:
+    """The resource row locked FOR UPDATE (with its site read), for other resource services."""
+    return _resource_lock(pk)
+
+
+def resource_serve(*, resource: Resource, now: datetime) -> list[Lease]:
+    """Grant the waiting leases of a locked resource while a unit is free."""
+    return _serve(resource, _live(resource), now=now)
+
+
+def resource_live_leases(resource: Resource) -> list[Lease]:
+    """The locked resource's live leases in arrival order."""
+    return _live(resource)
 
 
 def _locked_resources():
@@ -504,6 +543,8 @@ def _of_robot(live: list[Lease], robot: Robot) -> Lease | None:
 
 
 def _free(resource: Resource, live: list[Lease]) -> int:
+    if not resource.in_service:
+        return 0  # its waiting robots are held in the queue until it is back
     return resource.capacity - sum(lease.holds for lease in live)
 
 

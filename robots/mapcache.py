@@ -1,8 +1,9 @@
 """An in-memory, read-only picture of one site's map, cached per process.
 
 The heartbeat validates codes against it and the router searches it, so neither queries the
-map on the hot path. A cached map is keyed by (site id, map_version); every load of a site
-file bumps map_version, so a process notices a new map on the next robot row it reads.
+map on the hot path. A cached map is keyed by (site id, map_version, availability_version):
+every load of a site file bumps map_version, every resource taken out of or returned to
+service availability_version, so a process notices either on the next robot row it reads.
 """
 
 from threading import Lock
@@ -27,13 +28,18 @@ _cache_lock = Lock()
 def site_map(site: Site) -> SiteMap:
     """The map of `site` as of its map_version; loads it at most once per version per process."""
     cached = _cache.get(site.pk)
-    if cached is not None and cached.map_version == site.map_version:
+    if cached is not None and _current(cached, site):
         return cached
     with _cache_lock:
         cached = _cache.get(site.pk)
-        if cached is None or cached.map_version != site.map_version:
+        if cached is None or not _current(cached, site):
             cached = _cache[site.pk] = _load(site)
     return cached
+
+
+def _current(cached: SiteMap, site: Site) -> bool:
+    versions = (site.map_version, site.availability_version)
+    return (cached.map_version, cached.availability_version) == versions
 
 
 def router_for(site: Site) -> Router:
@@ -82,6 +88,7 @@ def _load(site: Site) -> SiteMap:
         waypoints=waypoints,
         edges=_edges(site, codes_by_id),
         resources=_resources(site, codes_by_id),
+        availability_version=site.availability_version,
     )
 
 
@@ -131,6 +138,7 @@ def _resources(site: Site, codes_by_id: dict[int, str]) -> list[MapResource]:
             seconds_per_floor=r.seconds_per_floor,
             overhead_seconds=r.overhead_seconds,
             waypoints=tuple(sorted(stops.get(r.id, []))),
+            out_of_service=r.out_of_service_since is not None,
         )
         for r in Resource.objects.filter(site=site)
     ]

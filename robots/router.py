@@ -61,6 +61,7 @@ class MapResource:
     seconds_per_floor: float
     overhead_seconds: float
     waypoints: tuple[str, ...]  # waiting waypoints; for an elevator, one per floor served
+    out_of_service: bool = False  # routes avoid it where another way exists (Router)
 
     @property
     def is_elevator(self) -> bool:
@@ -80,6 +81,11 @@ class SiteMap:
     # elevator code -> floor code -> its waiting waypoint there
     elevator_stops: dict[str, dict[str, str]] = field(default_factory=dict)
     floor_names: dict[str, str] = field(default_factory=dict)
+    availability_version: int = 0  # with map_version, what a cached map is keyed by
+
+    @property
+    def out_of_service(self) -> frozenset[str]:
+        return frozenset(code for code, r in self.resources.items() if r.out_of_service)
 
     def serves_floor(self, resource_code: str, floor_code: str) -> bool:
         return floor_code in self.elevator_stops.get(resource_code, {})
@@ -97,6 +103,7 @@ def site_map_build(
     waypoints: Iterable[MapWaypoint],
     edges: Iterable[MapEdge],
     resources: Iterable[MapResource],
+    availability_version: int = 0,
 ) -> SiteMap:
     """A SiteMap from its parts, wherever they were read from."""
     floors = list(floors)
@@ -113,6 +120,7 @@ def site_map_build(
         resources=resources_by_code,
         elevator_stops=_elevator_stops(resources_by_code.values(), waypoints_by_code),
         floor_names={f.code: f.name for f in floors},
+        availability_version=availability_version,
     )
 
 
@@ -263,11 +271,17 @@ class Router:
 
     Each source is searched at most once per Router (the scheduler asks thousands of times per
     allocation); its map never changes, so share one Router per map version (router_for).
+
+    Routes avoid resources out of service where another way exists; a waypoint reachable only
+    through one is still routed through it (the robot is then held in its queue until it is
+    back in service, rather than its delivery failing).
     """
 
     def __init__(self, site_map: SiteMap):
         self.site_map = site_map
-        self._links = _links(site_map)
+        avoid = site_map.out_of_service
+        self._links = _links(site_map, avoid=avoid)
+        self._all_links = _links(site_map) if avoid else None
         self._trees: dict[str, _Tree] = {}
 
     def travel_time(self, a: str, b: str) -> float:
@@ -299,23 +313,33 @@ class Router:
         tree = self._trees.get(source)
         if tree is None:
             self._check(source)
-            tree = self._trees[source] = shortest_paths(self._links, source)
+            tree = self._trees[source] = self._search(source)
         return tree
+
+    def _search(self, source: str) -> _Tree:
+        tree = shortest_paths(self._links, source)
+        if self._all_links is None or len(tree.seconds) == len(self._links):
+            return tree
+        # Waypoints cut off by a resource out of service: reached through it, as a fallback,
+        # while every waypoint reachable without it keeps its way round.
+        return shortest_paths(self._all_links, source, keep=tree)
 
     def _check(self, code: str) -> None:
         if code not in self.site_map.waypoints:
             raise KeyError(f"unknown waypoint {code!r}")
 
 
-def _links(site_map: SiteMap) -> dict[str, list[_Link]]:
+def _links(site_map: SiteMap, avoid: frozenset[str] = frozenset()) -> dict[str, list[_Link]]:
     links: dict[str, list[_Link]] = {code: [] for code in site_map.waypoints}
     for edge in site_map.edges:
+        if edge.guarded_by in avoid:
+            continue
         seconds = edge.length / site_map.robot_speed
         links[edge.source].append(_Link(edge.target, seconds, edge.guarded_by))
         if not edge.oneway:
             links[edge.target].append(_Link(edge.source, seconds, edge.guarded_by))
     for resource in site_map.resources.values():
-        if resource.is_elevator:
+        if resource.is_elevator and resource.code not in avoid:
             _add_rides(links, resource, site_map.waypoints)
     return links
 
@@ -334,12 +358,17 @@ def _add_rides(
                 links[a.code].append(_Link(b.code, seconds, elevator.code, ride=True))
 
 
-def shortest_paths(links: Mapping[str, list[_Link]], source: str) -> _Tree:
-    """Dijkstra from `source` over `links` (all costs are >= 0)."""
-    seconds = {source: 0.0}
-    came_by: dict[str, tuple[str, _Link]] = {}
+def shortest_paths(
+    links: Mapping[str, list[_Link]], source: str, keep: _Tree | None = None
+) -> _Tree:
+    """Dijkstra from `source` over `links` (all costs are >= 0). With `keep`, the waypoints it
+    reached keep their seconds and paths, and the search only extends it to the others."""
+    seconds = dict(keep.seconds) if keep else {source: 0.0}
+    came_by: dict[str, tuple[str, _Link]] = dict(keep.came_by) if keep else {}
+    fixed = keep.seconds.keys() if keep else frozenset()
     done: set[str] = set()
-    queue = [(0.0, source)]
+    queue = [(so_far, code) for code, so_far in seconds.items()]
+    heapq.heapify(queue)
     while queue:
         so_far, code = heapq.heappop(queue)
         if code in done:
@@ -347,11 +376,20 @@ def shortest_paths(links: Mapping[str, list[_Link]], source: str) -> _Tree:
         done.add(code)
         for link in links[code]:
             candidate = so_far + link.seconds
+            if link.target in fixed:
+                continue
             if candidate < seconds.get(link.target, math.inf):
                 seconds[link.target] = candidate
                 came_by[link.target] = (code, link)
                 heapq.heappush(queue, (candidate, link.target))
     return _Tree(seconds=seconds, came_by=came_by)
+
+
+def _path_steps(tree: _Tree, target: str):
+    """(waypoint, how it was reached) along the shortest path to `target`."""
+    while target in tree.came_by:
+        yield target, tree.came_by[target]
+        target = tree.came_by[target][0]
 
 
 def _steps_back(tree: _Tree, target: str) -> list[tuple[str, _Link]]:

@@ -79,3 +79,13 @@ class OperatorActionKind(models.TextChoices):
     PAUSE = "pause", "Pause"
     RESUME = "resume", "Resume"
     RETURN_TO_DOCK = "return_to_dock", "Return to dock"
+
+
+class ResourceActionKind(models.TextChoices):
+    """What an operator can do to an elevator, door or corridor (resources/availability.py)."""
+
+    OUT_OF_SERVICE = "out_of_service", "Take out of service"
+    BACK_IN_SERVICE = "back_in_service", "Return to service"
+
+
+OPERATOR_ACTION_CHOICES = [*OperatorActionKind.choices, *ResourceActionKind.choices]

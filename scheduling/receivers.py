@@ -22,3 +22,8 @@ def on_heartbeat_applied(*, applied) -> None:
 def on_presence_changed(*, robot, old, new, at) -> None:
     if new == Presence.OFFLINE:
         services.robot_offline(robot=robot, at=at)
+
+
+def on_availability_changed(*, resource, now) -> None:
+    """A resource went out of or back into service: routes are planned again after commit."""
+    services.reroute_enqueue(site_id=resource.site_id, resource=resource.code)

@@ -303,3 +303,18 @@ class TaskDetailSerializer(TaskSerializer):
     class Meta(TaskSerializer.Meta):
         fields = [*TaskSerializer.Meta.fields, "history"]
         read_only_fields = fields
+
+
+class ResourceServiceSerializer(serializers.Serializer):
+    """An elevator, door or corridor and whether it is in service."""
+
+    site = serializers.CharField(source="site.code")
+    code = serializers.CharField()
+    kind = serializers.CharField()
+    in_service = serializers.BooleanField()
+    out_of_service_since = serializers.DateTimeField(allow_null=True)
+    out_of_service_reason = serializers.CharField()
+
+
+class ResourceOutOfServiceSerializer(serializers.Serializer):
+    reason = StrictCharField(max_length=200, help_text="why, for the operators and the robots")

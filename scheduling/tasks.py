@@ -35,3 +35,8 @@ def unload_timeout_sweep() -> None:
         "unload timeouts",
         {"drop-offs overdue": overdue, "robots moved on": services.unattended_sweep()},
     )
+
+
+@shared_task(autoretry_for=(OperationalError,), retry_backoff=True, max_retries=5)
+def site_reroute(site_id: int, resource: str = "") -> None:
+    services.site_reroute(site_id=site_id)

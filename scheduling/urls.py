@@ -1,9 +1,26 @@
 from django.urls import path
 
-from scheduling.views import TaskCancelView, TaskViewSet
+from scheduling.views import (
+    ResourceListView,
+    ResourceOutOfServiceView,
+    ResourceReturnToServiceView,
+    TaskCancelView,
+    TaskViewSet,
+)
 
 urlpatterns = [
     path("tasks/", TaskViewSet.as_view({"get": "list", "post": "create"}), name="task-list"),
     path("tasks/<str:code>", TaskViewSet.as_view({"get": "retrieve"}), name="task-detail"),
     path("tasks/<str:code>/cancel", TaskCancelView.as_view(), name="task-cancel"),
+    path("sites/<str:site>/resources/", ResourceListView.as_view(), name="resource-list"),
+    path(
+        "sites/<str:site>/resources/<str:code>/out-of-service",
+        ResourceOutOfServiceView.as_view(),
+        name="resource-out-of-service",
+    ),
+    path(
+        "sites/<str:site>/resources/<str:code>/return-to-service",
+        ResourceReturnToServiceView.as_view(),
+        name="resource-return-to-service",
+    ),
 ]

@@ -5,11 +5,23 @@ from rest_framework.response import Response
 from rest_framework.views import APIView
 
 from core.errors import ErrorSerializer
+from robots.models import Resource, Site
 from scheduling.choices import TaskStatus
 from scheduling.models import Task
 from scheduling.selectors import task_detail, task_list
-from scheduling.serializers import TaskDetailSerializer, TaskRequestSerializer, TaskSerializer
-from scheduling.services import TaskNotCancellable, task_cancel, task_request
+from scheduling.serializers import (
+    ResourceOutOfServiceSerializer,
+    ResourceServiceSerializer,
+    TaskDetailSerializer,
+    TaskRequestSerializer,
+    TaskSerializer,
+)
+from scheduling.services import (
+    TaskNotCancellable,
+    resource_operator_set_service,
+    task_cancel,
+    task_request,
+)
 
 ERRORS = {
     400: OpenApiResponse(ErrorSerializer, description="invalid; nothing created"),
@@ -104,3 +116,75 @@ class TaskCancelView(APIView):
         except TaskNotCancellable as refused:
             raise Conflict(str(refused)) from None
         return Response(TaskDetailSerializer(task_detail(code=code)).data)
+
+
+RESOURCE_ERRORS = {
+    **ERRORS,
+    404: OpenApiResponse(ErrorSerializer, description="no such site or resource"),
+    409: OpenApiResponse(ErrorSerializer, description="already out of (or in) service"),
+}
+
+
+class ResourceListView(APIView):
+    """A site's elevators, doors and corridors with their service state: staff users only."""
+
+    @extend_schema(
+        operation_id="resource_list",
+        summary="A site's elevators, doors and corridors, and whether each is in service",
+        responses={200: ResourceServiceSerializer(many=True), **RESOURCE_ERRORS},
+        tags=["resources"],
+    )
+    def get(self, request, site):
+        resources = Resource.objects.filter(site__code=site).select_related("site")
+        if not resources and not Site.objects.filter(code=site).exists():
+            raise exceptions.NotFound(f"no site {site!r}")
+        return Response(ResourceServiceSerializer(resources, many=True).data)
+
+
+class ResourceOutOfServiceView(APIView):
+    """Take a resource out of service (an operator's action, recorded)."""
+
+    @extend_schema(
+        operation_id="resource_out_of_service",
+        summary="Take an elevator, door or corridor out of service: nobody is granted it, "
+        "routes avoid it, waiting robots are told",
+        request=ResourceOutOfServiceSerializer,
+        responses={200: ResourceServiceSerializer, **RESOURCE_ERRORS},
+        tags=["resources"],
+    )
+    def post(self, request, site, code):
+        resource = _resource(site, code)
+        form = ResourceOutOfServiceSerializer(data=request.data)
+        form.is_valid(raise_exception=True)
+        reason = form.validated_data["reason"]
+        done = resource_operator_set_service(
+            resource=resource, in_service=False, by=request.user, reason=reason
+        )
+        if done is None:
+            raise Conflict(f"{code} is already out of service")
+        return Response(ResourceServiceSerializer(_resource(site, code)).data)
+
+
+class ResourceReturnToServiceView(APIView):
+    """Return a resource to service: its queue is granted in order."""
+
+    @extend_schema(
+        operation_id="resource_return_to_service",
+        summary="Return an elevator, door or corridor to service",
+        request=None,
+        responses={200: ResourceServiceSerializer, **RESOURCE_ERRORS},
+        tags=["resources"],
+    )
+    def post(self, request, site, code):
+        resource = _resource(site, code)
+        done = resource_operator_set_service(resource=resource, in_service=True, by=request.user)
+        if done is None:
+            raise Conflict(f"{code} is in service")
+        return Response(ResourceServiceSerializer(_resource(site, code)).data)
+
+
+def _resource(site: str, code: str) -> Resource:
+    found = Resource.objects.select_related("site").filter(site__code=site, code=code).first()
+    if found is None:
+        raise exceptions.NotFound(f"no resource {code!r} at site {site!r}")
+    return found

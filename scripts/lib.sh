@@ -209,6 +209,34 @@ ensure_redis() {
 }
 
 # ----------------------------------------------------------------------------------------------
+# Mosquitto (127.0.0.1:1883): the MQTT broker of the building's lift and door controllers
+# (BUILDING_ADAPTER=mqtt) and of the tests of the MQTT adapter. (issue 16's VDA 5050 bridge
+# needs it too: one ensure_mosquitto is kept at merge.)
+
+mosquitto_answers() { (exec 3<>/dev/tcp/127.0.0.1/1883) 2>/dev/null; }
+
+ensure_mosquitto() {
+    if mosquitto_answers; then
+        return 0
+    fi
+    local fresh=""
+    apt_package_installed mosquitto || fresh=1
+    ensure_apt_packages mosquitto
+    if [[ -n "${fresh}" ]] && wait_until 5 "" mosquitto_answers; then
+        log "Mosquitto is up"
+        return 0
+    fi
+    log "starting Mosquitto"
+    if ! start_with_init mosquitto || ! wait_until 10 "" mosquitto_answers; then
+        # No init system to ask (e.g. a container): run it ourselves, on loopback only (the
+        # default listener of Mosquitto 2 without a configuration file).
+        mosquitto -d -p 1883 || die "mosquitto did not start"
+    fi
+    wait_until "${SERVICE_START_TIMEOUT}" "Mosquitto" mosquitto_answers \
+        || die "Mosquitto does not answer on 127.0.0.1:1883 after ${SERVICE_START_TIMEOUT}s"
+}
+
+# ----------------------------------------------------------------------------------------------
 # PostgreSQL (127.0.0.1:5432)
 
 postgres_answers() { pg_isready -q -h 127.0.0.1 -p 5432 -t 2; }

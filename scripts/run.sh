@@ -29,6 +29,9 @@ is_local_url() {
 }
 
 ensure_services() {
+    if [[ "${BUILDING_ADAPTER:-sim}" == "mqtt" && "${BUILDING_MQTT_HOST:-127.0.0.1}" == "127.0.0.1" ]]; then
+        ensure_mosquitto  # the building's lift and door controllers talk to it
+    fi
     if [[ -z "${REDIS_URL:-}" ]] || is_local_url "${REDIS_URL}" 6379; then
         ensure_redis
     else

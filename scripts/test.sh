@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # THE test command: ./scripts/test.sh [pytest args...]
 #
-# Installs what it needs (Python packages into .venv; Redis, PostgreSQL and Chromium from Debian's
-# packages when missing), starts Redis and PostgreSQL when they are stopped, then runs, stopping
+# Installs what it needs (Python packages into .venv; Redis, Mosquitto, PostgreSQL and Chromium
+# from Debian's packages when missing), starts Redis, Mosquitto and PostgreSQL when stopped, then runs, stopping
 # at the first failure: ruff lint, ruff format check, the import-linter contracts (the layers of
 # pyproject.toml), Django's system checks, the missing-migration check and pytest (which includes
 # the bounded property-based runs of tests/security: Hypothesis bodies at the heartbeat and the
@@ -18,6 +18,7 @@ started=${SECONDS}
 
 ensure_venv
 ensure_redis
+ensure_mosquitto
 ensure_postgres
 # A role of the project's own (not the postgres superuser), so no superuser password is touched.
 # pytest-django creates and drops test_${TEST_PG_DB}; two runs at once on one machine need

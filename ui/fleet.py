@@ -8,23 +8,24 @@ rendered by ui/live/parts.py, for the page and for its re-read after a reconnect
 from dataclasses import dataclass
 
 from django.contrib import messages
-from django.http import Http404, HttpResponseBadRequest
+from django.http import Http404, HttpResponseBadRequest, JsonResponse
 from django.shortcuts import get_object_or_404, redirect, render
 from django.urls import reverse
 from django.utils.http import url_has_allowed_host_and_scheme
 from django.views.decorators.http import require_POST
 
+from building.services import DRIVEN_KINDS, device_hold_doors, device_send_car
 from core.access import member_required, operator_required
 from resources.leases import lease_revoke
 from resources.models import Lease
 from robots.alerts import alert_acknowledge
 from robots.membership import site_required
-from robots.models import Alert, Robot, Site
+from robots.models import Alert, Floor, Resource, Robot, Site
 from robots.selectors import fleet_snapshot
 from scheduling.choices import OperatorActionKind
-from scheduling.services import robot_action
+from scheduling.services import resource_operator_set_service, robot_action
 from ui.drawing import FloorDrawing, floor_drawing, floors_of
-from ui.forms import RobotActionForm
+from ui.forms import CarSendForm, DoorHoldForm, ResourceServiceForm, RobotActionForm
 from ui.live.parts import fleet_context, resources_context, robot_context
 from ui.live.payloads import robot_payload
 from ui.selectors import page_site, robot_detail
@@ -96,6 +97,76 @@ def lease_release_post(request, lease_id: str):
             + (f"Now granted to {after}." if after else "Nobody waits."),
         )
     return redirect(f"{reverse('fleet')}?site={lease.resource.site.code}")
+
+
+@require_POST
+@operator_required
+def resource_service_post(request, site: str, code: str):
+    """An operator takes a resource out of service, or returns it (the page asked to confirm)."""
+    resource = _resource_of(request, site, code)
+    form = ResourceServiceForm(request.POST)
+    if not form.is_valid():
+        return _invalid(form.errors)
+    in_service, reason = form.cleaned_data["in_service"], form.cleaned_data["reason"]
+    done = resource_operator_set_service(
+        resource=resource, in_service=in_service, by=request.user, reason=reason
+    )
+    if done is None:
+        messages.info(request, f"{code} already was {'in' if in_service else 'out of'} service.")
+    elif in_service:
+        messages.success(request, f"{code} is back in service.")
+    else:
+        messages.success(request, f"{code} is out of service: {reason}.")
+    return _back_to_fleet(resource)
+
+
+@require_POST
+@operator_required
+def resource_doors_post(request, site: str, code: str):
+    resource = _resource_of(request, site, code, driven=True)
+    form = DoorHoldForm(request.POST)
+    if not form.is_valid():
+        return _invalid(form.errors)
+    hold = form.cleaned_data["hold"]
+    device_hold_doors(resource=resource, hold=hold)
+    messages.success(request, f"Doors of {code} {'held open' if hold else 'let go'}.")
+    return _back_to_fleet(resource)
+
+
+@require_POST
+@operator_required
+def resource_car_post(request, site: str, code: str):
+    resource = _resource_of(request, site, code, driven=True)
+    form = CarSendForm(request.POST)
+    floor = None
+    if form.is_valid():
+        floor = Floor.objects.filter(
+            site=resource.site, code=form.cleaned_data["floor"], waypoints__waiting_for=resource
+        ).first()
+    if not resource.is_elevator or floor is None:
+        return _invalid({"floor": [f"{code} does not stop at that floor"]})
+    device_send_car(resource=resource, floor=floor)
+    messages.success(request, f"Car of {code} sent to {floor.code}.")
+    return _back_to_fleet(resource)
+
+
+def _resource_of(request, site: str, code: str, *, driven=False) -> Resource:
+    resource = get_object_or_404(
+        Resource.objects.select_related("site"), site__code=site, code=code
+    )
+    site_required(request.user, resource.site_id, f"resource {code!r}")
+    if driven and resource.kind not in DRIVEN_KINDS:
+        raise Http404(f"{code} has no lift or door the server drives")
+    return resource
+
+
+def _invalid(detail: dict) -> JsonResponse:
+    """400 in the API's error shape, naming each field; nothing was changed."""
+    return JsonResponse({"error": "invalid", "detail": detail}, status=400)
+
+
+def _back_to_fleet(resource: Resource):
+    return redirect(f"{reverse('fleet')}?site={resource.site.code}")
 
 
 @require_POST

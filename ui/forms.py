@@ -255,3 +255,29 @@ class RobotActionForm(forms.Form):
     """An operator's button on the robot page: Pause, Resume or Return to dock."""
 
     action = forms.ChoiceField(choices=OperatorActionKind.choices)
+
+
+class ResourceServiceForm(forms.Form):
+    """An operator takes a resource out of service (with a reason) or returns it."""
+
+    in_service = forms.TypedChoiceField(
+        choices=[("true", "in service"), ("false", "out of service")],
+        coerce=lambda value: value == "true",
+    )
+    reason = forms.CharField(max_length=200, required=False, strip=True)
+
+    def clean(self):
+        cleaned = super().clean()
+        if cleaned.get("in_service") is False and not cleaned.get("reason"):
+            self.add_error("reason", "say why it is out of service")
+        return cleaned
+
+
+class DoorHoldForm(forms.Form):
+    hold = forms.TypedChoiceField(
+        choices=[("true", "hold"), ("false", "let go")], coerce=lambda value: value == "true"
+    )
+
+
+class CarSendForm(forms.Form):
+    floor = forms.CharField(max_length=32)

@@ -16,6 +16,13 @@ urlpatterns = [
     path("robots/<str:code>/", fleet.robot_page, name="robot-page"),
     path("robots/<str:code>/action", fleet.robot_action_post, name="robot-action"),
     path("leases/<str:lease_id>/release", fleet.lease_release_post, name="lease-release"),
+    path(
+        "resources/<str:site>/<str:code>/service",
+        fleet.resource_service_post,
+        name="resource-service",
+    ),
+    path("resources/<str:site>/<str:code>/doors", fleet.resource_doors_post, name="resource-doors"),
+    path("resources/<str:site>/<str:code>/car", fleet.resource_car_post, name="resource-car"),
     path("alerts/<int:pk>/acknowledge", fleet.alert_acknowledge_post, name="alert-acknowledge"),
     path("live/<str:site>/state.json", state.state, name="live-state"),
     path("maps/<str:site>/edit", maps.map_editor, name="map-editor"),

@@ -18,6 +18,7 @@ class AlertKind(models.TextChoices):
     UNLOAD_TIMEOUT = "unload_timeout", "Nobody unloaded a robot waiting at a drop-off"
     UNATTENDED = "unattended", "Robot moved on from a drop-off nobody unloaded"
     DEADLINE_AT_RISK = "deadline_at_risk", "Delivery will be late"
+    RESOURCE_OUT_OF_SERVICE = "resource_out_of_service", "Elevator, door or corridor out of service"
 
 
 class AlertQuerySet(models.QuerySet):

@@ -85,6 +85,12 @@ class Site(models.Model):
         default=1, editable=False, help_text="bumped by every load; routing caches key on it"
     )
     loaded_at = models.DateTimeField(null=True, blank=True, editable=False)
+    availability_version = models.PositiveIntegerField(
+        default=0,
+        editable=False,
+        help_text="bumped whenever a resource goes out of or back into service; routers key on "
+        "it with map_version",
+    )
 
     def __str__(self):
         return self.name or self.code
@@ -144,6 +150,10 @@ class Resource(models.Model):
     waypoints = models.ManyToManyField(
         Waypoint, through="ResourceWaypoint", related_name="waiting_for"
     )
+    # Out of service (resources/service.py): nobody is granted it and routes avoid it where
+    # another way exists. Set by an operator or by its building device's fault or silence.
+    out_of_service_since = models.DateTimeField(null=True, blank=True, editable=False)
+    out_of_service_reason = models.CharField(max_length=200, blank=True, editable=False)
 
     class Meta:
         ordering = ["site", "code"]
@@ -157,6 +167,10 @@ class Resource(models.Model):
     @property
     def is_elevator(self) -> bool:
         return self.kind == ResourceKind.ELEVATOR
+
+    @property
+    def in_service(self) -> bool:
+        return self.out_of_service_since is None
 
     def ride_seconds(self, from_level: int, to_level: int) -> float:
         return self.overhead_seconds + self.seconds_per_floor * abs(to_level - from_level)

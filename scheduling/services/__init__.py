@@ -32,10 +32,11 @@ from scheduling.services.allocation import (
 from scheduling.services.cancellation import TaskNotCancellable, task_cancel
 from scheduling.services.events import heartbeat_tasks_apply
 from scheduling.services.faults import heartbeat_fault_check, robot_fault, robot_fault_resolve
-from scheduling.services.operator import robot_action
+from scheduling.services.operator import resource_operator_set_service, robot_action
 from scheduling.services.presence import robot_offline, robot_tasks_give_back
 from scheduling.services.recurring import recurring_stop
 from scheduling.services.requests import recurring_sweep, task_request
+from scheduling.services.rerouting import reroute_enqueue, site_reroute
 from scheduling.services.timeouts import ack_timeout_sweep
 from scheduling.services.unloading import task_move_on, unattended_sweep, unload_timeout_sweep
 
@@ -47,12 +48,15 @@ __all__ = [
     "heartbeat_tasks_apply",
     "recurring_stop",
     "recurring_sweep",
+    "reroute_enqueue",
+    "resource_operator_set_service",
     "robot_action",
     "robot_fault",
     "robot_fault_resolve",
     "robot_offline",
     "robot_tasks_give_back",
     "site_allocate_due",
+    "site_reroute",
     "task_allocate",
     "task_allocate_with_its_site",
     "task_cancel",

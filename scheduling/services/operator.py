@@ -22,9 +22,10 @@ from django.utils import timezone
 from boards import protocol
 from boards.choices import MessageType
 from boards.services import board_post
-from robots.models import Robot
+from resources.availability import resource_return_to_service, resource_take_out_of_service
+from robots.models import Resource, Robot
 from robots.services import robot_lock, robot_publish
-from scheduling.choices import ROUTE_STATUSES, Cause, OperatorActionKind
+from scheduling.choices import ROUTE_STATUSES, Cause, OperatorActionKind, ResourceActionKind
 from scheduling.models import OperatorAction, Task
 from scheduling.services.faults import robot_fault_resolve
 from scheduling.services.history import task_record
@@ -79,3 +80,23 @@ def _tell_held_tasks(robot: Robot, action: str, by, now: datetime) -> None:
         task_record(
             task, old=task.status, at=now, cause=Cause.USER, robot=robot, user=by, note=note
         )
+
+
+@transaction.atomic
+def resource_operator_set_service(
+    *, resource: Resource, in_service: bool, by, reason: str = "", now: datetime | None = None
+) -> OperatorAction | None:
+    """An operator takes a resource out of service (with a reason) or returns it; recorded.
+    None if it already was so (nothing changed, nothing recorded)."""
+    now = now or timezone.now()
+    if in_service:
+        changed = resource_return_to_service(resource=resource, actor=by, now=now)
+        action = ResourceActionKind.BACK_IN_SERVICE
+    else:
+        changed = resource_take_out_of_service(resource=resource, reason=reason, actor=by, now=now)
+        action = ResourceActionKind.OUT_OF_SERVICE
+    if not changed:
+        return None
+    return OperatorAction.objects.create(
+        resource=resource, action=action, by=by, at=now, note=reason[:200]
+    )

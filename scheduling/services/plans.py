@@ -65,6 +65,34 @@ def robot_replan(*, robot: Robot, now: datetime, held: HeldRoute | None = None) 
     return plan_post(robot=robot, start=held.route.start, stops=stops, tasks=held.tasks, now=now)
 
 
+def robot_replan_if_changed(*, robot: Robot, now: datetime) -> RobotPlan | None:
+    """Post a new plan if the best one on the map as it stands now (a resource out of or back
+    in service) differs from the robot's current plan; None if it does not."""
+    current = RobotPlan.objects.filter(robot=robot).first()
+    if current is None:
+        return None
+    held = robot_route(robot=robot, now=now)
+    router = router_for(robot.site)
+    if held.is_empty:
+        via = router.leg(robot_position(robot), robot_dock(robot)).via
+        wire = [protocol.plan_dock_stop(waypoint=robot_dock(robot), via=via)]
+    else:
+        plan = best_plan(held.route, router.travel_time)
+        if plan is None:
+            return None
+        wire = _wire_stops(router, held.route.start, list(plan.stops))
+    if _same_route(wire, current.body.get("stops", [])):
+        return None
+    return robot_replan(robot=robot, now=now, held=held)
+
+
+def _same_route(new: list[dict], old: list[dict]) -> bool:
+    def route(stops):
+        return [(s.get("task"), s.get("stop"), s["waypoint"], s.get("via", [])) for s in stops]
+
+    return route(new) == route(old)
+
+
 def robot_dock_if_idle(*, robot: Robot, now: datetime) -> RobotPlan | None:
     """Send a robot that has nothing left to do to its dock, unless that is its plan already."""
     if not robot_route(robot=robot, now=now).is_empty:

@@ -69,4 +69,5 @@
   Live.on("state", (state) => (state.robots || []).forEach(moveMarker));
   Live.on("task", () => Live.rereadSoon("fleet"));
   Live.on("lease", () => Live.rereadSoon("resources"));
+  Live.on("resource", () => Live.rereadSoon("resources"));
 })();

@@ -49,11 +49,14 @@ from boards.serializers import (
     HeartbeatSerializer,
     PlanStopSerializer,
 )
+from building.models import Device
+from building.services import sim_step
 from core.errors import flatten_errors
+from resources.availability import resource_return_to_service, resource_take_out_of_service
 from robots.badges import BadgeHash, badge_matches
 from robots.choices import REPORTABLE_STATUSES, Presence
 from robots.mapcache import router_for, site_map
-from robots.models import Robot, Waypoint
+from robots.models import Resource, Robot, Waypoint
 from robots.services import robot_token_issue
 from robots.sitefile import site_file_read, site_load
 from robotsim.client import badge_check, pin_check
@@ -644,6 +647,16 @@ def server_messages(client, eulji, tokens, staff) -> list[dict]:
     beat("R3", "2F-ELEV-A-WAIT", requests=[ride])
     wait = {"id": "q-2", "type": "acquire", "resource": "ELEV-A", "to_floor": "2F"}
     beat("R4", "15F-ELEV-A-WAIT", requests=[wait])
+    # The simulated car comes to R3's floor and opens its doors there: R3 is told.
+    lift = Device.objects.get(resource__code="ELEV-A")
+    sim_step(device=lift, now=timezone.now() + timedelta(minutes=5))
+    beat("R3", "2F-ELEV-A-WAIT", status="waiting_resource")
+    # The lift is taken out of service and back: both robots with a lease on it are told.
+    elevator = Resource.objects.get(site=eulji, code="ELEV-A")
+    resource_take_out_of_service(resource=elevator, reason="maintenance", actor=staff)
+    beat("R4", "15F-ELEV-A-WAIT", status="waiting_resource")
+    resource_return_to_service(resource=elevator, actor=staff)
+    beat("R4", "15F-ELEV-A-WAIT", status="waiting_resource")
     robot_action(robot=Robot.objects.get(code="R3"), action="pause", by=staff)
     beat("R3", "2F-ELEV-A-WAIT", status="waiting_resource")
     beat("R4", "15F-ELEV-A-WAIT", battery=0.1)  # low, nothing on board: sent to charge

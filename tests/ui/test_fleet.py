@@ -102,6 +102,7 @@ def test_it_renders_the_fleet_page_in_constant_queries(
     nurse_client.get("/fleet/")  # the site map is cached from now on
 
     # session, user, the user's groups, sites, the user's sites, robots, their tasks, leases,
-    # resources in use (none: no wait to estimate), open alerts
-    with django_assert_num_queries(10):
+    # resources in use (none: no wait to estimate), open alerts; for the lift and door panels:
+    # the resources' service, their devices, the floors each lift serves
+    with django_assert_num_queries(13):
         assert nurse_client.get("/fleet/").content.count(b"<tr data-robot=") == robots

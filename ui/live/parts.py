@@ -8,10 +8,11 @@ from dataclasses import dataclass
 from django.template.loader import render_to_string
 from django.utils import timezone
 
+from building.selectors import device_panels
 from core.access import can_cancel
 from resources.selectors import resource_queues, resource_waits
 from robots.mapcache import site_map
-from robots.models import Robot, Site, Waypoint
+from robots.models import Resource, Robot, Site, Waypoint
 from robots.selectors import fleet_snapshot
 from scheduling.models import Task
 from scheduling.selectors import robot_plan, schedule_for_site, station_incoming, tasks_by_robot
@@ -99,12 +100,30 @@ def resources_context(site: Site) -> dict:
     resources = site_map(site).resources
     queues = resource_queues(site=site)
     waits = resource_waits(site=site, now=timezone.now())
+    service = {r.code: r for r in Resource.objects.filter(site=site)}
+    panels = device_panels(site=site)
     return {
         "page_site": site,
         "resources": [
-            (resources[code], queues.get(code, []), waits.get(code)) for code in sorted(resources)
+            ResourceRow(
+                resources[code],
+                queues.get(code, []),
+                waits.get(code),
+                service.get(code),
+                panels.get(code),
+            )
+            for code in sorted(resources)
         ],
     }
+
+
+@dataclass(frozen=True)
+class ResourceRow:
+    resource: object  # robots.router.MapResource
+    leases: list
+    wait: float | None
+    service: Resource | None  # its row: in service or not, since when, why
+    panel: object | None  # building.selectors.DevicePanel: its lift or door, if driven
 
 
 def robot_context(detail) -> dict:

@@ -86,6 +86,11 @@ def lease_payload(lease, *, resource) -> dict:
     }
 
 
+def resource_payload(resource) -> dict:
+    """A resource's service or building device changed: the page re-reads its panel."""
+    return {"resource": resource.code, "in_service": resource.out_of_service_since is None}
+
+
 def alert_payload(alert) -> dict:
     return {
         "id": alert.pk,

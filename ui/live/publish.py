@@ -23,6 +23,7 @@ PAYLOADS = {
     changes.TASK: payloads.task_payload,
     changes.LEASE: payloads.lease_payload,
     changes.ALERT: payloads.alert_payload,
+    changes.RESOURCE: payloads.resource_payload,
     changes.ALERT_ACKNOWLEDGED: payloads.alert_acknowledged_payload,
     changes.ETAS: payloads.etas_payload,
 }

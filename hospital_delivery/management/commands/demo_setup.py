@@ -23,6 +23,7 @@ from django.contrib.auth.models import Group
 from django.core.management.base import BaseCommand, CommandError
 from django.db import transaction
 
+from building.services import devices_ensure
 from hospital_delivery.models import ApiToken
 from robots.choices import WaypointKind
 from robots.models import Robot, Site, SiteMembership, Waypoint
@@ -119,6 +120,8 @@ class Command(BaseCommand):
         users = get_user_model().objects.filter(username__in=DEMO_USERS)
         for user in users if site else ():
             SiteMembership.objects.get_or_create(user=user, site=site)
+        if site:  # the lifts and doors (simulated by default) show on the fleet page at once
+            devices_ensure(site=site)
 
     # --- Fleet --------------------------------------------------------------------------
 

@@ -1,0 +1,91 @@
+"""Resources out of service: an elevator under maintenance, a door that reports a fault.
+
+A resource out of service is granted to nobody (resources.leases._free): robots that ask for
+it queue, and those already queued stay there, held rather than failed, until it is back.
+Every robot with a live lease on it is told (`resource_out_of_service`, then
+`resource_in_service`); routers avoid it where another way exists (robots/router.py, keyed
+by the site's availability_version); operators are alerted; and the receivers of
+resources.hooks.availability_changed (the scheduler) plan affected routes again.
+
+Robots inside, or granted and on their way in, keep their leases: a car with a robot in it
+is not emptied by a flag, and the operator sees them on the fleet page.
+"""
+
+from datetime import datetime
+
+from django.db import transaction
+from django.db.models import F
+from django.utils import timezone
+
+from core import changes
+from resources.hooks import availability_changed
+from resources.leases import (
+    out_of_service_tell,
+    resource_live_leases,
+    resource_lock,
+    resource_serve,
+)
+from robots.alerts import alert_raise, alerts_close
+from robots.models import AlertKind, Resource, Site
+
+REASON_MAX = 200
+
+
+@transaction.atomic
+def resource_take_out_of_service(
+    *, resource: Resource, reason: str, actor=None, now: datetime | None = None
+) -> bool:
+    """Take `resource` out of service; False (nothing changed) if it already was."""
+    now = now or timezone.now()
+    resource = resource_lock(resource.pk)
+    if not resource.in_service:
+        return False
+    resource.out_of_service_since = now
+    resource.out_of_service_reason = reason[:REASON_MAX]
+    resource.save(update_fields=["out_of_service_since", "out_of_service_reason"])
+    _changed(resource, now=now)
+    who = f" by {actor.get_username()}" if actor is not None else ""
+    alert_raise(
+        site_id=resource.site_id,
+        kind=AlertKind.RESOURCE_OUT_OF_SERVICE,
+        key=_alert_key(resource),
+        message=(
+            f"{resource.code} is out of service{who}: {resource.out_of_service_reason}. Robots "
+            "go another way where there is one; the others wait in its queue until it is back."
+        ),
+        resource=resource,
+    )
+    return True
+
+
+@transaction.atomic
+def resource_return_to_service(*, resource: Resource, actor=None, now: datetime | None = None):
+    """Return `resource` to service and grant its queue in order; False if it was in service."""
+    now = now or timezone.now()
+    resource = resource_lock(resource.pk)
+    if resource.in_service:
+        return False
+    resource.out_of_service_since = None
+    resource.out_of_service_reason = ""
+    resource.save(update_fields=["out_of_service_since", "out_of_service_reason"])
+    _changed(resource, now=now)
+    alerts_close(key=_alert_key(resource), by=actor, at=now)
+    resource_serve(resource=resource, now=now)
+    return True
+
+
+def _changed(resource: Resource, *, now: datetime) -> None:
+    """Tell every robot with a live lease, make routers see it, then the receivers above."""
+    for lease in resource_live_leases(resource):
+        out_of_service_tell(lease.robot, resource)
+    # The routers' cache key (robots/mapcache.py): every process re-reads the map's service
+    # state on the next robot row it reads. F() so concurrent bumps never lose one.
+    site = Site.objects.filter(pk=resource.site_id)
+    site.update(availability_version=F("availability_version") + 1)
+    resource.site.refresh_from_db(fields=["availability_version"])
+    changes.changed(kind=changes.RESOURCE, site_id=resource.site_id, subject=resource)
+    availability_changed(resource=resource, now=now)
+
+
+def _alert_key(resource: Resource) -> str:
+    return f"resource-out-of-service:{resource.pk}"
