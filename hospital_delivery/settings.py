@@ -69,6 +69,7 @@ INSTALLED_APPS = [
     "ui",
     "reports",
     "webhooks",
+    "vda5050",
     "hospital_delivery",
 ]
 
@@ -293,6 +294,12 @@ PRESENCE_SWEEP_SECONDS = env_int("PRESENCE_SWEEP_SECONDS", 1, minimum=1)
 SWEEP_SECONDS = env_int("SWEEP_SECONDS", 1, minimum=1)
 # Webhook deliveries whose retry time came (or whose Celery message was lost) are sent by a sweep.
 WEBHOOK_SWEEP_SECONDS = env_int("WEBHOOK_SWEEP_SECONDS", 5, minimum=1)
+
+# The VDA 5050 bridge (manage.py vda5050_bridge): the MQTT broker and the topics' first level
+# (`<interface>/v2/<manufacturer>/<serialNumber>/<topic>`).
+VDA5050_MQTT_HOST = env_str("VDA5050_MQTT_HOST", "127.0.0.1")
+VDA5050_MQTT_PORT = env_int("VDA5050_MQTT_PORT", 1883, minimum=1)
+VDA5050_INTERFACE = env_str("VDA5050_INTERFACE", "uagv")
 
 
 def _sweep(task: str, every: float) -> dict:

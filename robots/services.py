@@ -134,6 +134,32 @@ def _heartbeat_is_newest(robot: Robot, boot_id: str, seq: int, now: datetime) ->
     return True
 
 
+@transaction.atomic
+def robot_connection_lost(*, robot_id: int, graceful: bool, now: datetime | None = None) -> str:
+    """A VDA 5050 vehicle's MQTT connection ended; returns its presence now.
+
+    Broken (its last will, CONNECTIONBROKEN) is what a heartbeat robot's silence is: unreachable
+    at once, offline at the deadline its last state set, and it keeps its tasks until then
+    (elevator cabins have no network). A goodbye (OFFLINE: it is shutting down) is offline at
+    once. Either way the flip goes through presence_changed like the sweep's.
+    """
+    now = now or timezone.now()
+    robot = robot_lock(robot_id)
+    if robot.last_seen_at is None:
+        return robot.presence
+    robot.unreachable_at = min(robot.unreachable_at, now)
+    if graceful:
+        robot.offline_at = min(robot.offline_at, now)
+    new, doing = robot.presence_at(now), robot_activity(robot)
+    old, robot.presence = robot.presence, new
+    robot.save(update_fields=Robot.PRESENCE_FIELDS)
+    if new != old:
+        _presence_record(robot, old=old, new=new, at=now, cause=PresenceChange.Cause.CONNECTION)
+        _activity_record(robot, previous=doing, at=now)
+        robot_publish(robot=robot)
+    return new
+
+
 def presence_sweep(*, now: datetime | None = None) -> int:
     """Flip the presence of robots whose deadline has passed; returns how many flipped."""
     now = now or timezone.now()
