@@ -43,6 +43,15 @@ def robot_token_issue(*, robot: Robot) -> str:
     return token
 
 
+def robot_protocol_declare(
+    *, robot: Robot, protocol: str, manufacturer: str = "", serial_number: str = ""
+) -> None:
+    """Say how the robot talks to the server (the site file does; so does the demo's setup)."""
+    robot.protocol, robot.manufacturer, robot.serial_number = protocol, manufacturer, serial_number
+    robot.full_clean(validate_unique=False, validate_constraints=False)
+    robot.save(update_fields=["protocol", "manufacturer", "serial_number"])
+
+
 def robot_lock(robot_id: int) -> Robot:
     """Lock the robot's row for the rest of the transaction: all its writes go through here.
 

@@ -9,6 +9,8 @@ Idempotent; ./scripts/run.sh runs it on every start.
   `traffic` (the simulated fleet's request generator), written with the server's URLs and the
   site file to var/fleet.json (mode 600), which `manage.py simulate_fleet` reads. Tokens are
   stored hashed, so they are issued again on each run (the previous ones stop working).
+  With `--vda5050 SHARE`, that share of the robots (the last by code) is declared VDA 5050
+  vehicles first (the demo's mixed fleet: simulate_fleet runs them over MQTT).
 """
 
 import json
@@ -16,14 +18,16 @@ import os
 import secrets
 from pathlib import Path
 
+from django.conf import settings
 from django.contrib.auth import get_user_model
 from django.contrib.auth.models import Group
 from django.core.management.base import BaseCommand, CommandError
 from django.db import transaction
 
 from hospital_delivery.models import ApiToken
+from robots.choices import RobotProtocol
 from robots.models import Robot, Site, SiteMembership
-from robots.services import robot_token_issue
+from robots.services import robot_protocol_declare, robot_token_issue
 from robots.sitefile import SiteFileInvalid, site_file_read
 
 GROUPS = ("nurse", "operator")
@@ -34,6 +38,7 @@ DEMO_USERS = {
     "nurse": ("nurse", False, False, "nurse: order deliveries and follow them"),
 }
 TRAFFIC_USER = "traffic"
+VDA5050_MANUFACTURER = "robotsim"  # the simulated VDA 5050 vehicles (robotsim/vda5050.py)
 
 
 def write_private(path: Path, data: dict) -> None:
@@ -58,6 +63,12 @@ class Command(BaseCommand):
         parser.add_argument("--ws-url", default="ws://127.0.0.1:8001")
         parser.add_argument("--logins", default="var/demo_logins.json")
         parser.add_argument("--fleet-file", default="var/fleet.json")
+        parser.add_argument(
+            "--vda5050",
+            type=float,
+            help="share (0..1) of the site's robots, the last by code, declared VDA 5050 "
+            "vehicles (manufacturer robotsim, serial number their code); the rest heartbeat",
+        )
 
     def handle(self, *args, only=None, **options):
         if only in (None, "users"):
@@ -129,9 +140,19 @@ class Command(BaseCommand):
         site = Site.objects.filter(code=code).first()
         if site is None:
             raise CommandError(f"site {code!r} is not loaded: manage.py load_site {site_file}")
+        rows = list(Robot.objects.filter(site=site).select_related("dock").order_by("code"))
+        if options.get("vda5050") is not None:
+            self._vda5050_declare(rows, options["vda5050"])
         robots = [
-            {"code": robot.code, "token": robot_token_issue(robot=robot), "dock": robot.dock.code}
-            for robot in Robot.objects.filter(site=site).select_related("dock").order_by("code")
+            {
+                "code": robot.code,
+                "token": robot_token_issue(robot=robot),
+                "dock": robot.dock.code,
+                "protocol": robot.protocol,
+                "manufacturer": robot.manufacturer,
+                "serial_number": robot.serial_number,
+            }
+            for robot in rows
         ]
         fleet = {
             "server_url": options["server_url"],
@@ -139,11 +160,31 @@ class Command(BaseCommand):
             "site_file": site_file,
             "robots": robots,
             "traffic_token": ApiToken.issue(self._traffic_user()),
+            "mqtt": {
+                "host": settings.VDA5050_MQTT_HOST,
+                "port": settings.VDA5050_MQTT_PORT,
+                "interface": settings.VDA5050_INTERFACE,
+            },
         }
         path = Path(options["fleet_file"])
         write_private(path, fleet)
         codes = ", ".join(robot["code"] for robot in robots) or "none"
         self.stdout.write(f"Tokens for robots {codes} and the traffic user's API token: {path}")
+
+    def _vda5050_declare(self, robots: list[Robot], share: float) -> None:
+        if not 0 <= share <= 1:
+            raise CommandError(f"--vda5050: a share from 0 to 1, not {share:g}")
+        count = round(share * len(robots))
+        for n, robot in enumerate(robots):
+            if n >= len(robots) - count:
+                robot_protocol_declare(
+                    robot=robot,
+                    protocol=RobotProtocol.VDA5050,
+                    manufacturer=VDA5050_MANUFACTURER,
+                    serial_number=robot.code,
+                )
+            else:
+                robot_protocol_declare(robot=robot, protocol=RobotProtocol.HEARTBEAT)
 
     def _traffic_user(self):
         User = get_user_model()
