@@ -209,6 +209,36 @@ ensure_redis() {
 }
 
 # ----------------------------------------------------------------------------------------------
+# Mosquitto, the MQTT broker of VDA 5050 vehicles (127.0.0.1:1883)
+
+mosquitto_answers() { tcp_port_open 127.0.0.1 1883; }
+
+ensure_mosquitto() {
+    if mosquitto_answers; then
+        return 0
+    fi
+    local fresh=""
+    apt_package_installed mosquitto || fresh=1
+    ensure_apt_packages mosquitto
+    # apt starts it on a machine with systemd; give that a moment before starting it ourselves.
+    if [[ -n "${fresh}" ]] && wait_until 5 "" mosquitto_answers; then
+        log "Mosquitto is up"
+        return 0
+    fi
+    log "starting Mosquitto"
+    if ! start_with_init mosquitto || ! wait_until 10 "" mosquitto_answers; then
+        # No init system to ask (e.g. a container): run it ourselves, on loopback only (Debian's
+        # default configuration listens on localhost when it names no listener).
+        local conf="${TMPDIR:-/tmp}/hospital_delivery-mosquitto.conf"
+        printf 'listener 1883 127.0.0.1\nallow_anonymous true\npersistence false\n' >"${conf}"
+        mosquitto -d -c "${conf}" \
+            || die "mosquitto did not start (config ${conf})"
+    fi
+    wait_until "${SERVICE_START_TIMEOUT}" "Mosquitto" mosquitto_answers \
+        || die "Mosquitto does not answer on 127.0.0.1:1883 after ${SERVICE_START_TIMEOUT}s"
+}
+
+# ----------------------------------------------------------------------------------------------
 # PostgreSQL (127.0.0.1:5432)
 
 postgres_answers() { pg_isready -q -h 127.0.0.1 -p 5432 -t 2; }

@@ -18,6 +18,7 @@ started=${SECONDS}
 
 ensure_venv
 ensure_redis
+ensure_mosquitto
 ensure_postgres
 # A role of the project's own (not the postgres superuser), so no superuser password is touched.
 # pytest-django creates and drops test_${TEST_PG_DB}; two runs at once on one machine need

@@ -133,6 +133,10 @@ class Robot(models.Model):
 
     @property
     def lockable_compartments(self) -> list[str]:
+        """Compartments that open for the recipient's PIN only. None on a VDA 5050 vehicle:
+        the standard has no way to hand it a PIN, so secure deliveries go to other robots."""
+        if self.protocol == RobotProtocol.VDA5050:
+            return []
         return [c["code"] for c in self.compartments or () if c.get("lockable")]
 
     def presence_at(self, now: datetime) -> str:
