@@ -84,6 +84,7 @@ class VdaVehicle:
         self.battery = 100.0
         self.finished: list[str] = []  # actionIds finished, in order (for tests)
         self.orders: list[dict] = []  # every order received (for tests)
+        self.instant: list[list[dict]] = []  # every instantActions' actions (for tests)
         self.headers: dict[str, int] = {}
         self._changed = True
         self._last_state = 0.0
@@ -164,6 +165,7 @@ class VdaVehicle:
             if message.topic.endswith("/order"):
                 self._order(body)
             elif message.topic.endswith("/instantActions"):
+                self.instant.append(body.get("actions", []))
                 for action in body.get("actions", []):
                     self._instant(action)
             self._changed = True

@@ -132,6 +132,8 @@ class Bridge:
                 site_map=vehicle.site_map,
                 router=vehicle.router,
             )
+            if vehicle.plan is not None:
+                link.resume(vehicle.plan)
         return link
 
     def _connection(self, link: Link, identity: tuple[str, str], message: dict) -> None:

@@ -71,6 +71,11 @@ class Link:
     last_state: dict | None = None
     held_requests: int = 0
 
+    def resume(self, plan: dict) -> None:
+        """Start from the robot's current plan (the bridge started while it was out): the
+        vehicle's order, unknown to this link, is cancelled and the plan ordered again."""
+        self.wanted = Wanted(key=1, plan_version=plan["plan_version"], stops=plan["stops"])
+
     # --- state -> heartbeat ------------------------------------------------------------------
 
     def heartbeat(self, state: dict) -> dict:

@@ -1,7 +1,7 @@
-"""What the VDA 5050 bridge writes, through the same services a heartbeat robot's requests go
-through: a vehicle's state is a heartbeat (boards.services.heartbeat_apply, with the robot's row
-locked, so every rule and every hook runs as for a heartbeat robot), its lost connection a
-presence flip (robots.services.robot_connection_lost)."""
+"""What the VDA 5050 bridge reads and writes. Writes go through the services a heartbeat
+robot's requests go through: a vehicle's state is a heartbeat (boards.services.heartbeat_apply,
+with the robot's row locked, so every rule and every hook runs as for a heartbeat robot), its
+lost connection a presence flip (robots.services.robot_connection_lost)."""
 
 from dataclasses import dataclass
 
@@ -14,7 +14,9 @@ from core.errors import flatten_errors
 from robots.choices import RobotProtocol
 from robots.mapcache import router_for, site_map
 from robots.models import Robot
+from robots.router import Router, SiteMap
 from robots.services import robot_connection_lost, robot_lock
+from scheduling.models import RobotPlan, TaskStop, task_pk
 
 
 @dataclass(frozen=True)
@@ -22,8 +24,9 @@ class Vehicle:
     robot_id: int
     code: str
     dock: str
-    site_map: object
-    router: object
+    site_map: SiteMap
+    router: Router
+    plan: dict | None  # the robot's current plan, stops done left out (after a restart)
 
 
 class HeartbeatRefused(Exception):
@@ -51,7 +54,27 @@ def vehicle_find(*, manufacturer: str, serial_number: str) -> Vehicle | None:
         dock=robot.dock.code,
         site_map=site_map(robot.site),
         router=router_for(robot.site),
+        plan=vehicle_plan_now(robot_id=robot.pk),
     )
+
+
+def vehicle_plan_now(*, robot_id: int) -> dict | None:
+    """The last plan posted for the robot, without the stops done since: what a bridge that
+    starts (or restarts) while the vehicle is out puts it back on."""
+    plan = RobotPlan.objects.filter(robot_id=robot_id).first()
+    if plan is None:
+        return None
+    done = set(
+        TaskStop.objects.filter(task__robot_id=robot_id, done_at__isnull=False).values_list(
+            "task_id", "index"
+        )
+    )
+    stops = [
+        stop
+        for stop in plan.body["stops"]
+        if "task" not in stop or (task_pk(stop["task"]), stop["stop"]) not in done
+    ]
+    return {"plan_version": plan.version, "stops": stops}
 
 
 @transaction.atomic
