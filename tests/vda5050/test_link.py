@@ -125,3 +125,31 @@ def test_it_pauses_and_resumes_by_instant_actions(link, vehicle, staff):
         robot_action(robot=vehicle, action="resume", by=staff)
     [resume] = exchange(link, state(paused=True))
     assert [a["actionType"] for a in resume.body["actions"]] == ["stopPause"]
+
+
+def test_it_sends_the_vehicle_home_on_return_to_dock(link, vehicle, site, staff):
+    exchange(link, state())
+    deliver(site, ["1F-PHARM"], ["2F-LAB"])
+    [order] = exchange(link, state())
+    driving = state(
+        orderId=order.body["orderId"],
+        lastNodeId="1F-HALL",
+        lastNodeSequenceId=2,
+        driving=True,
+        nodeStates=[{"nodeId": "1F-PHARM", "sequenceId": 4, "released": True}],
+    )
+    exchange(link, driving)
+    with transaction.atomic():
+        robot_action(robot=vehicle, action="return_to_dock", by=staff)
+
+    # The operator's command: the vehicle's order is cancelled first...
+    [cancel] = exchange(link, driving)
+    assert [a["actionType"] for a in cancel.body["actions"]] == ["cancelOrder"]
+    assert exchange(link, driving) == []  # (once)
+    # ...and once it reports no nodes left, it is ordered to its dock from where it stopped.
+    stopped = {**driving, "lastNodeId": "1F-PHARM", "lastNodeSequenceId": 4, "driving": False}
+    [home] = exchange(link, {**stopped, "nodeStates": []})
+    assert home.topic == "order"
+    assert home.body["orderId"] != order.body["orderId"]
+    assert [n["nodeId"] for n in home.body["nodes"]] == ["1F-PHARM", "1F-HALL", "1F-DOCK-1"]
+    assert all(n["released"] and not n["actions"] for n in home.body["nodes"])
