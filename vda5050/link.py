@@ -57,6 +57,7 @@ class Link:
     boot_id: str = field(default_factory=lambda: f"vda-{uuid.uuid4().hex[:16]}")
     seq: int = 0
     events: list[dict] = field(default_factory=list)  # not yet applied
+    reported: set[str] = field(default_factory=set)  # ids of every event queued
     requests: list[dict] = field(default_factory=list)
     acks: list[str] = field(default_factory=list)
     handled: set[str] = field(default_factory=set)  # board message ids dealt with
@@ -134,7 +135,9 @@ class Link:
     def _event(self, event_id: str, type: str, **fields) -> None:
         # Ids from what happened, not from a counter: the same fact always has the same id, so
         # the board applies it once however often the vehicle (or a restarted bridge) says it.
-        if not any(event["id"] == event_id for event in self.events):
+        # Queued once per run of the bridge all the same: states repeat it every second.
+        if event_id not in self.reported:
+            self.reported.add(event_id)
             self.events.append({"id": event_id, "type": type, **fields})
 
     def _crossings_seen(self, order: Order, state: dict) -> None:
