@@ -134,6 +134,17 @@ def test_a_mixed_fleet_shares_the_elevator_and_completes_every_delivery(
             interval=0.5,
             what="every robot home",
         )
+        # The vehicles' counterpart of "nothing left to tell the server": the bridge has applied
+        # a state of each at home, and with it every event before.
+        servers.poll(
+            lambda: all(
+                (r.status, r.waypoint_id) == ("charging", r.dock_id)
+                for r in Robot.objects.filter(protocol="vda5050")
+            ),
+            timeout=60,
+            interval=0.5,
+            what="the server seeing the vehicles home",
+        )
     assert heartbeat_robots.errors == []
     carried = set(Task.objects.filter(pk__in=tasks).values_list("robot__code", flat=True))
     assert {"V1", "V2"} <= carried, carried  # the vehicles did carry deliveries
@@ -155,7 +166,8 @@ def _assert_capacity_respected():
     riders = {lease.robot.code for lease in rides}
     assert {"V1", "V2"} <= riders, riders  # shared by both kinds
     assert riders & {"R1", "R2"}, riders
-    assert not Lease.objects.live().exists()
+    live = list(Lease.objects.live().values_list("robot__code", "resource__code", "state"))
+    assert not live, live
     assert not Alert.objects.filter(kind="entered_without_grant").exists()
     for resource in Resource.objects.filter(capacity=1):
         held = sorted(
