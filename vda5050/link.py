@@ -126,11 +126,21 @@ class Link:
             if action["actionStatus"] == "FINISHED" and (task, stop) not in self.done:
                 self.done.add((task, stop))
                 self._event(f"vda-{task}-{stop}", EVENT_OF_ACTION[kind], task=task, stop=stop)
+            if action["actionStatus"] == "FAILED" and self._failed_by_vehicle(action):
+                reason = action.get("resultDescription") or f"{kind} failed"
+                self._event(f"vda-{task}-{stop}-failed", "task_failed", task=task, reason=reason)
         if self.order is not None:
             for task in self.order.tasks_done(self.done):
                 if task not in self.completed:
                     self.completed.add(task)
                     self._event(f"vda-{task}-completed", "task_completed", task=task)
+
+    def _failed_by_vehicle(self, action: dict) -> bool:
+        """A pick or drop of the order the vehicle drives now that failed, not one a cancelOrder
+        of ours ended (the standard fails the actions a cancelled order had not started)."""
+        order = self.order
+        order_id = action["actionId"].split("/")[0]
+        return order is not None and order_id == order.order_id != self.cancel_sent_for
 
     def _event(self, event_id: str, type: str, **fields) -> None:
         # Ids from what happened, not from a counter: the same fact always has the same id, so

@@ -153,3 +153,45 @@ def test_it_sends_the_vehicle_home_on_return_to_dock(link, vehicle, site, staff)
     assert home.body["orderId"] != order.body["orderId"]
     assert [n["nodeId"] for n in home.body["nodes"]] == ["1F-PHARM", "1F-HALL", "1F-DOCK-1"]
     assert all(n["released"] and not n["actions"] for n in home.body["nodes"])
+
+
+def pharmacy_state(order, status: str, **changes) -> dict:
+    pick = order.body["nodes"][2]["actions"][0]["actionId"]
+    action = {"actionId": pick, "actionType": "pick", "actionStatus": status}
+    return state(
+        orderId=order.body["orderId"],
+        lastNodeId="1F-PHARM",
+        lastNodeSequenceId=4,
+        actionStates=[{**action, "resultDescription": "compartment jammed"}],
+        **changes,
+    )
+
+
+def test_it_reports_a_pick_the_vehicle_failed(link, site):
+    exchange(link, state())
+    task = deliver(site, ["1F-PHARM"], ["2F-LAB"])
+    [order] = exchange(link, state())
+
+    exchange(link, pharmacy_state(order, "FAILED"))
+
+    event = RobotEvent.objects.get(type="task_failed")
+    assert (event.task, event.data["reason"]) == (task.code, "compartment jammed")
+    task.refresh_from_db()
+    assert task.robot_id is None  # nothing on board: it goes to another robot
+
+
+def test_it_does_not_report_the_picks_its_own_cancel_order_failed(link, vehicle, site, staff):
+    exchange(link, state())
+    deliver(site, ["1F-PHARM"], ["2F-LAB"])
+    [order] = exchange(link, state())
+    on_the_way = {"nodeId": "1F-HALL", "sequenceId": 6, "released": True}
+    exchange(link, pharmacy_state(order, "WAITING", nodeStates=[on_the_way]))
+    with transaction.atomic():
+        robot_action(robot=vehicle, action="return_to_dock", by=staff)
+    [cancel] = exchange(link, pharmacy_state(order, "WAITING", nodeStates=[on_the_way]))
+    assert [a["actionType"] for a in cancel.body["actions"]] == ["cancelOrder"]
+
+    # The standard's vehicle fails the actions a cancelled order had not started.
+    exchange(link, pharmacy_state(order, "FAILED"))
+
+    assert not RobotEvent.objects.filter(type="task_failed").exists()
