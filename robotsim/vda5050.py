@@ -191,7 +191,7 @@ class VdaVehicle:
             if order["orderUpdateId"] > self.update_id:
                 self._update(order)
             return
-        if self.nodes or self.motion is not None:
+        if self.nodes or self.motion is not None or self.running is not None:
             logger.warning("%s: order %s refused: busy", self.serial_number, order["orderId"])
             return
         first = order["nodes"][0] if order["nodes"] else None
@@ -298,9 +298,9 @@ class VdaVehicle:
         self._changed = True
 
     def _finish(self, action_id: str) -> None:
-        state = self.actions[action_id]
+        state = self.actions.get(action_id, {})
         self.running = None
-        if state["actionStatus"] == "RUNNING":
+        if state.get("actionStatus") == "RUNNING":
             state["actionStatus"] = "FINISHED"
             self.finished.append(action_id)
             if state["actionType"] == "pick":

@@ -286,6 +286,8 @@ class Link:
             return self._update(order) if order_changed else []
         if order is not None and any(c.inside for c in order.crossings):
             return []  # never switch routes inside an elevator, door or corridor
+        if _loading(state):
+            return []  # nor while the staff load or unload it: the new route starts after
         if state["nodeStates"]:  # still on its previous order: cancel it first
             if self.cancel_sent_for == state["orderId"]:
                 return []
@@ -330,3 +332,11 @@ class Link:
             return []
         order.update_id += 1
         return [Outgoing("order", order_wire(order, self.site_map, from_seq=previous))]
+
+
+def _loading(state: dict) -> bool:
+    """A pick or drop of ours is under way (its order is not done even with no nodes left)."""
+    return any(
+        action["actionStatus"] in RUNNING | {"PAUSED"} and action_parse(action["actionId"])
+        for action in state["actionStates"]
+    )

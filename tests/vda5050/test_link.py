@@ -195,3 +195,23 @@ def test_it_does_not_report_the_picks_its_own_cancel_order_failed(link, vehicle,
     exchange(link, pharmacy_state(order, "FAILED"))
 
     assert not RobotEvent.objects.filter(type="task_failed").exists()
+
+
+def test_it_changes_the_route_only_after_the_staff_are_done(link, site):
+    exchange(link, state())
+    deliver(site, ["1F-PHARM"], ["2F-LAB"])
+    [order] = exchange(link, state())
+    ahead = [{"nodeId": "1F-HALL", "sequenceId": 6, "released": True}]
+    loading = pharmacy_state(order, "RUNNING", nodeStates=ahead)
+    exchange(link, loading)
+
+    deliver(site, ["1F-PHARM"], ["3F-WARD"])  # a new plan for the vehicle, mid-loading
+
+    assert exchange(link, loading) == []  # a cancelOrder now would interrupt the staff
+    [cancel] = exchange(link, pharmacy_state(order, "FINISHED", nodeStates=ahead))
+    assert [a["actionType"] for a in cancel.body["actions"]] == ["cancelOrder"]
+    [new] = exchange(link, pharmacy_state(order, "FINISHED"))
+    assert new.topic == "order"
+    assert new.body["nodes"][0]["nodeId"] == "1F-PHARM"
+    picks = [a for n in new.body["nodes"] for a in n["actions"] if a["actionType"] == "pick"]
+    assert len(picks) == 1  # the second delivery's; the first one's pick is done
