@@ -71,6 +71,7 @@ INSTALLED_APPS = [
     "ui",
     "reports",
     "webhooks",
+    "vda5050",
     "hospital_delivery",
 ]
 
@@ -309,6 +310,11 @@ BUILDING_REPORT_TIMEOUT = env_int("BUILDING_REPORT_TIMEOUT", 10, minimum=1)
 BUILDING_MQTT_HOST = env_str("BUILDING_MQTT_HOST", "127.0.0.1")
 BUILDING_MQTT_PORT = env_int("BUILDING_MQTT_PORT", 1883, minimum=1)
 BUILDING_MQTT_PREFIX = env_str("BUILDING_MQTT_PREFIX", "hospital_delivery/building")
+# The VDA 5050 bridge (manage.py vda5050_bridge): the MQTT broker and the topics' first level
+# (`<interface>/v2/<manufacturer>/<serialNumber>/<topic>`).
+VDA5050_MQTT_HOST = env_str("VDA5050_MQTT_HOST", "127.0.0.1")
+VDA5050_MQTT_PORT = env_int("VDA5050_MQTT_PORT", 1883, minimum=1)
+VDA5050_INTERFACE = env_str("VDA5050_INTERFACE", "uagv")
 
 
 def _sweep(task: str, every: float) -> dict:

@@ -142,6 +142,7 @@ class RobotAdmin(admin.ModelAdmin):
     list_display = [
         "code",
         "site",
+        "protocol",
         "presence",
         "status",
         "floor",
@@ -151,8 +152,8 @@ class RobotAdmin(admin.ModelAdmin):
         "capacity",
         "last_seen_at",
     ]
-    list_filter = ["site", "presence", "status"]
-    search_fields = ["code", "name"]
+    list_filter = ["site", "protocol", "presence", "status"]
+    search_fields = ["code", "name", "serial_number"]
     list_select_related = ["site", "floor", "waypoint"]
     actions = ["issue_token"]
     inlines = [PresenceChangeInline]
@@ -160,10 +161,19 @@ class RobotAdmin(admin.ModelAdmin):
     presence_fields = [*Robot.PRESENCE_FIELDS, "paused_by_operator"]
     fieldsets = [
         (None, {"fields": ["code", "name", "site", "dock", "capacity", "token_issued_at"]}),
+        # From the site file, like the dock: a VDA 5050 vehicle's identity on its MQTT topics.
+        ("Protocol", {"fields": ["protocol", "manufacturer", "serial_number"]}),
         ("Presence", {"fields": presence_fields}),
         ("Last reported state", {"fields": reported}),
     ]
-    readonly_fields = ["token_issued_at", *presence_fields, *reported]
+    readonly_fields = [
+        "token_issued_at",
+        "protocol",
+        "manufacturer",
+        "serial_number",
+        *presence_fields,
+        *reported,
+    ]
 
     def get_readonly_fields(self, request, obj=None):
         # A robot's site and code are fixed once it exists: its history and tokens refer to them.

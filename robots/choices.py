@@ -38,3 +38,11 @@ class Presence(models.TextChoices):
     ONLINE = "online", "Online"
     UNREACHABLE = "unreachable", "Unreachable"
     OFFLINE = "offline", "Offline"
+
+
+class RobotProtocol(models.TextChoices):
+    """How a robot talks to the server: our heartbeats, or VDA 5050 over MQTT (the vda5050
+    bridge translates)."""
+
+    HEARTBEAT = "heartbeat", "Heartbeat (protocol v1)"
+    VDA5050 = "vda5050", "VDA 5050 over MQTT"

@@ -32,6 +32,7 @@ class RobotSerializer(serializers.ModelSerializer):
             "site",
             "dock",
             "capacity",
+            "protocol",
             "presence",
             "last_seen_at",
             "unreachable_at",

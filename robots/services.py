@@ -52,6 +52,15 @@ def robot_token_issue(*, robot: Robot) -> str:
     return token
 
 
+def robot_protocol_declare(
+    *, robot: Robot, protocol: str, manufacturer: str = "", serial_number: str = ""
+) -> None:
+    """Say how the robot talks to the server (the site file does; so does the demo's setup)."""
+    robot.protocol, robot.manufacturer, robot.serial_number = protocol, manufacturer, serial_number
+    robot.full_clean(validate_unique=False, validate_constraints=False)
+    robot.save(update_fields=["protocol", "manufacturer", "serial_number"])
+
+
 def robot_lock(robot_id: int) -> Robot:
     """Lock the robot's row for the rest of the transaction: all its writes go through here.
 
@@ -148,6 +157,32 @@ def _heartbeat_is_newest(robot: Robot, boot_id: str, seq: int, now: datetime) ->
         return False  # a boot the robot has since left behind: a late heartbeat
     RobotBoot.objects.create(robot=robot, boot_id=boot_id, first_seen_at=now)
     return True
+
+
+@transaction.atomic
+def robot_connection_lost(*, robot_id: int, graceful: bool, now: datetime | None = None) -> str:
+    """A VDA 5050 vehicle's MQTT connection ended; returns its presence now.
+
+    Broken (its last will, CONNECTIONBROKEN) is what a heartbeat robot's silence is: unreachable
+    at once, offline at the deadline its last state set, and it keeps its tasks until then
+    (elevator cabins have no network). A goodbye (OFFLINE: it is shutting down) is offline at
+    once. Either way the flip goes through presence_changed like the sweep's.
+    """
+    now = now or timezone.now()
+    robot = robot_lock(robot_id)
+    if robot.last_seen_at is None:
+        return robot.presence
+    robot.unreachable_at = min(robot.unreachable_at, now)
+    if graceful:
+        robot.offline_at = min(robot.offline_at, now)
+    new, doing = robot.presence_at(now), robot_activity(robot)
+    old, robot.presence = robot.presence, new
+    robot.save(update_fields=Robot.PRESENCE_FIELDS)
+    if new != old:
+        _presence_record(robot, old=old, new=new, at=now, cause=PresenceChange.Cause.CONNECTION)
+        _activity_record(robot, previous=doing, at=now)
+        robot_publish(robot=robot)
+    return new
 
 
 def presence_sweep(*, now: datetime | None = None) -> int:

@@ -17,7 +17,7 @@ from django.db import models, transaction
 from django.db.models import ProtectedError, RestrictedError
 from django.utils import timezone
 
-from robots.choices import ResourceKind, WaypointKind
+from robots.choices import ResourceKind, RobotProtocol, WaypointKind
 from robots.models import Edge, Floor, Resource, ResourceWaypoint, Robot, Site, Waypoint
 from robots.models.fleet import ROBOT_CODE
 from robots.models.map import UNATTENDED_TO_PICKUP
@@ -205,6 +205,10 @@ ROBOT_FIELDS = {
     "capacity": _Field(int, minimum=1, maximum=32767),
     "name": TEXT,
     "compartments": _Field(list),
+    # VDA 5050 vehicles (the vda5050 bridge): protocol vda5050 and both parts of their identity.
+    "protocol": _Field(str, choices=tuple(RobotProtocol.values)),
+    "manufacturer": _Field(str, max_length=64, pattern=CODE_PATTERN),
+    "serial_number": _Field(str, max_length=64, pattern=CODE_PATTERN),
 }
 # A compartment holds one item; a lockable one opens only for the recipient (secure deliveries).
 COMPARTMENT_FIELDS = {
@@ -566,6 +570,7 @@ class _Validation:
 
     def _robots(self, robots: list) -> None:
         seen: dict[str, str] = {}
+        seen_identities: dict[tuple, str] = {}
         for n, raw in enumerate(robots):
             path = f"robots[{n}]"
             robot = self._item(raw, path, ROBOT_FIELDS)
@@ -578,6 +583,20 @@ class _Validation:
                 self._dock(robot["dock"], f"{path}.dock")
             if "compartments" in robot:
                 self._compartments(robot, path)
+            self._vda5050_identity(robot, path, seen_identities)
+
+    def _vda5050_identity(self, robot: dict, path: str, seen: dict) -> None:
+        """A VDA 5050 vehicle names its manufacturer and serial number (its MQTT topics do);
+        a heartbeat robot names neither."""
+        vda = robot.get("protocol") == RobotProtocol.VDA5050
+        for name in ("manufacturer", "serial_number"):
+            if vda and not robot.get(name):
+                self._problem(f"{path}.{name}", "required for a vda5050 robot")
+            if not vda and name in robot:
+                self._problem(f"{path}.{name}", "only for a robot of protocol vda5050")
+        identity = (robot.get("manufacturer"), robot.get("serial_number"))
+        if vda and all(identity) and seen.setdefault(identity, path) != path:
+            self._problem(f"{path}.serial_number", f"duplicate vehicle {identity[0]}/{identity[1]}")
 
     def _compartments(self, robot: dict, path: str) -> None:
         """Each compartment holds one item, so they set the robot's capacity."""
@@ -869,6 +888,9 @@ def _robots_write(site: Site, robots: list[dict], plan: SiteMap) -> None:
             "dock_id": docks[robot["dock"]],
             "capacity": robot.get("capacity", _default(Robot, "capacity")),
             "compartments": _compartments(robot),
+            "protocol": robot.get("protocol", RobotProtocol.HEARTBEAT),
+            "manufacturer": robot.get("manufacturer", ""),
+            "serial_number": robot.get("serial_number", ""),
         }
         if robot.get("compartments"):
             wanted[robot["code"]]["capacity"] = len(robot["compartments"])

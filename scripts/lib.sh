@@ -209,11 +209,9 @@ ensure_redis() {
 }
 
 # ----------------------------------------------------------------------------------------------
-# Mosquitto (127.0.0.1:1883): the MQTT broker of the building's lift and door controllers
-# (BUILDING_ADAPTER=mqtt) and of the tests of the MQTT adapter. (issue 16's VDA 5050 bridge
-# needs it too: one ensure_mosquitto is kept at merge.)
+# Mosquitto, the MQTT broker of VDA 5050 vehicles (127.0.0.1:1883)
 
-mosquitto_answers() { (exec 3<>/dev/tcp/127.0.0.1/1883) 2>/dev/null; }
+mosquitto_answers() { tcp_port_open 127.0.0.1 1883; }
 
 ensure_mosquitto() {
     if mosquitto_answers; then
@@ -222,15 +220,19 @@ ensure_mosquitto() {
     local fresh=""
     apt_package_installed mosquitto || fresh=1
     ensure_apt_packages mosquitto
+    # apt starts it on a machine with systemd; give that a moment before starting it ourselves.
     if [[ -n "${fresh}" ]] && wait_until 5 "" mosquitto_answers; then
         log "Mosquitto is up"
         return 0
     fi
     log "starting Mosquitto"
     if ! start_with_init mosquitto || ! wait_until 10 "" mosquitto_answers; then
-        # No init system to ask (e.g. a container): run it ourselves, on loopback only (the
-        # default listener of Mosquitto 2 without a configuration file).
-        mosquitto -d -p 1883 || die "mosquitto did not start"
+        # No init system to ask (e.g. a container): run it ourselves, on loopback only (Debian's
+        # default configuration listens on localhost when it names no listener).
+        local conf="${TMPDIR:-/tmp}/hospital_delivery-mosquitto.conf"
+        printf 'listener 1883 127.0.0.1\nallow_anonymous true\npersistence false\n' >"${conf}"
+        mosquitto -d -c "${conf}" \
+            || die "mosquitto did not start (config ${conf})"
     fi
     wait_until "${SERVICE_START_TIMEOUT}" "Mosquitto" mosquitto_answers \
         || die "Mosquitto does not answer on 127.0.0.1:1883 after ${SERVICE_START_TIMEOUT}s"

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # THE run command: ./scripts/run.sh
 #
-# Installs what it needs (Python packages into .venv; Redis, and PostgreSQL when DATABASE_URL
-# names a local one, from Debian's packages when missing), prepares the database and static
+# Installs what it needs (Python packages into .venv; Redis, Mosquitto (MQTT, for VDA 5050
+# vehicles), and PostgreSQL when DATABASE_URL names a local one, from Debian's packages when
+# missing), prepares the database and static
 # files, loads the hospital site, then runs every process of the Procfile under honcho in the
 # foreground. Ctrl-C stops them all.
 #
@@ -37,6 +38,10 @@ ensure_services() {
     else
         log "REDIS_URL is not local; not starting Redis"
     fi
+    case "${VDA5050_MQTT_HOST:-127.0.0.1}:${VDA5050_MQTT_PORT:-1883}" in
+        127.0.0.1:1883 | localhost:1883) ensure_mosquitto ;;
+        *) log "VDA5050_MQTT_HOST/PORT is not the local broker; not starting Mosquitto" ;;
+    esac
     case "${DATABASE_URL:-}" in
         postgres://* | postgresql://* | pgsql://*)
             if is_local_url "${DATABASE_URL}" 5432; then
@@ -106,9 +111,12 @@ hook_create_demo_users() {
 # HOOK robot tokens: issue API tokens for the simulated robots (e.g. into var/), for the fleet.
 # New tokens for the site's robots and the request generator's user, with the server's URLs,
 # into var/fleet.json (mode 600), which the fleet process reads.
+# FLEET_VDA5050 (default 0.5): the share of the robots declared VDA 5050 vehicles, which the
+# fleet runs over MQTT and the `vda5050` bridge makes members of the fleet (a mixed fleet).
 hook_issue_robot_tokens() {
     python manage.py demo_setup --only fleet --site-file "${SITE_FILE}" \
-        --server-url "http://127.0.0.1:${PORT_HTTP}" --ws-url "ws://127.0.0.1:${PORT_HTTP}"
+        --server-url "http://127.0.0.1:${PORT_HTTP}" --ws-url "ws://127.0.0.1:${PORT_HTTP}" \
+        --vda5050 "${FLEET_VDA5050:-0.5}"
 }
 
 # HOOK simulated fleet: prepare whatever the `fleet:` Procfile line needs. The fleet process
@@ -152,7 +160,8 @@ cat >&2 <<EOF
   hospital_delivery is starting: open http://127.0.0.1:${PORT_HTTP}/
   (admin: http://127.0.0.1:${PORT_HTTP}/admin/, API docs: http://127.0.0.1:${PORT_HTTP}/api/docs/,
    everything through nginx on this one port). Log in with a demo login printed above.
-  Simulated robots drive the site at ${FLEET_SPEEDUP}x real time (a delivery across floors takes
+  Simulated robots (a share of them VDA 5050 vehicles over MQTT, through the vda5050 bridge)
+  drive the site at ${FLEET_SPEEDUP}x real time (a delivery across floors takes
   well under a minute), with ${FLEET_TRAFFIC} random deliveries per simulated hour.
   Ctrl-C stops everything.
 

@@ -8,7 +8,7 @@ from django.db.models import Q
 from django.utils import timezone
 
 from core.tokens import token_hash
-from robots.choices import Presence, RobotStatus
+from robots.choices import Presence, RobotProtocol, RobotStatus
 from robots.models.map import Floor, Site, Waypoint
 
 ROBOT_CODE = RegexValidator(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,31}$", "letters, digits, _ . -")
@@ -30,6 +30,13 @@ class Robot(models.Model):
     # From the site file: [{"code": "A", "lockable": true}, ...], one item each (so capacity is
     # their number). Secure deliveries go only to robots with a lockable one.
     compartments = models.JSONField(default=list, blank=True)
+    # Heartbeat robots call the server themselves; VDA 5050 vehicles speak MQTT to the vda5050
+    # bridge, which finds them by manufacturer and serial number (its topics name both).
+    protocol = models.CharField(
+        max_length=16, choices=RobotProtocol, default=RobotProtocol.HEARTBEAT
+    )
+    manufacturer = models.CharField(max_length=64, blank=True, help_text="VDA 5050 only")
+    serial_number = models.CharField(max_length=64, blank=True, help_text="VDA 5050 only")
     token_hash = models.CharField(max_length=64, blank=True, editable=False)
     token_issued_at = models.DateTimeField(null=True, blank=True, editable=False)
 
@@ -110,6 +117,11 @@ class Robot(models.Model):
             models.UniqueConstraint(
                 fields=["token_hash"], condition=~Q(token_hash=""), name="robot_token_unique"
             ),
+            models.UniqueConstraint(
+                fields=["manufacturer", "serial_number"],
+                condition=~Q(serial_number=""),
+                name="robot_vda5050_identity_unique",
+            ),
         ]
         indexes = [
             models.Index(fields=["presence", "unreachable_at"], name="robot_unreachable_due"),
@@ -121,6 +133,10 @@ class Robot(models.Model):
 
     @property
     def lockable_compartments(self) -> list[str]:
+        """Compartments that open for the recipient's PIN only. None on a VDA 5050 vehicle:
+        the standard has no way to hand it a PIN, so secure deliveries go to other robots."""
+        if self.protocol == RobotProtocol.VDA5050:
+            return []
         return [c["code"] for c in self.compartments or () if c.get("lockable")]
 
     def presence_at(self, now: datetime) -> str:
@@ -184,6 +200,7 @@ class PresenceChange(models.Model):
     class Cause(models.TextChoices):
         HEARTBEAT = "heartbeat", "Heartbeat"
         SWEEP = "sweep", "Sweep (deadline passed)"
+        CONNECTION = "connection", "Connection lost (VDA 5050 last will or goodbye)"
 
     robot = models.ForeignKey(Robot, on_delete=models.CASCADE, related_name="presence_changes")
     at = models.DateTimeField()

@@ -11,6 +11,8 @@ Idempotent; ./scripts/run.sh runs it on every start.
   stored hashed, so they are issued again on each run (the previous ones stop working). The
   demo nurse is given the site's first ward as her unit and a new badge, whose id goes into
   var/fleet.json for the simulated staff of that ward (only its hash is kept by the server).
+  With `--vda5050 SHARE`, that share of the robots (the last by code) is declared VDA 5050
+  vehicles first (the demo's mixed fleet: simulate_fleet runs them over MQTT).
 """
 
 import json
@@ -18,6 +20,7 @@ import os
 import secrets
 from pathlib import Path
 
+from django.conf import settings
 from django.contrib.auth import get_user_model
 from django.contrib.auth.models import Group
 from django.core.management.base import BaseCommand, CommandError
@@ -25,9 +28,9 @@ from django.db import transaction
 
 from building.services import devices_ensure
 from hospital_delivery.models import ApiToken
-from robots.choices import WaypointKind
+from robots.choices import RobotProtocol, WaypointKind
 from robots.models import Robot, Site, SiteMembership, Waypoint
-from robots.services import membership_badge_set, robot_token_issue
+from robots.services import membership_badge_set, robot_protocol_declare, robot_token_issue
 from robots.sitefile import SiteFileInvalid, site_file_read
 
 GROUPS = ("nurse", "operator")
@@ -38,6 +41,7 @@ DEMO_USERS = {
     "nurse": ("nurse", False, False, "nurse: order deliveries and follow them"),
 }
 TRAFFIC_USER = "traffic"
+VDA5050_MANUFACTURER = "robotsim"  # the simulated VDA 5050 vehicles (robotsim/vda5050.py)
 
 
 def write_private(path: Path, data: dict) -> None:
@@ -62,6 +66,12 @@ class Command(BaseCommand):
         parser.add_argument("--ws-url", default="ws://127.0.0.1:8001")
         parser.add_argument("--logins", default="var/demo_logins.json")
         parser.add_argument("--fleet-file", default="var/fleet.json")
+        parser.add_argument(
+            "--vda5050",
+            type=float,
+            help="share (0..1) of the site's robots, the last by code, declared VDA 5050 "
+            "vehicles (manufacturer robotsim, serial number their code); the rest heartbeat",
+        )
 
     def handle(self, *args, only=None, **options):
         if only in (None, "users"):
@@ -135,9 +145,19 @@ class Command(BaseCommand):
         site = Site.objects.filter(code=code).first()
         if site is None:
             raise CommandError(f"site {code!r} is not loaded: manage.py load_site {site_file}")
+        rows = list(Robot.objects.filter(site=site).select_related("dock").order_by("code"))
+        if options.get("vda5050") is not None:
+            self._vda5050_declare(rows, options["vda5050"])
         robots = [
-            {"code": robot.code, "token": robot_token_issue(robot=robot), "dock": robot.dock.code}
-            for robot in Robot.objects.filter(site=site).select_related("dock").order_by("code")
+            {
+                "code": robot.code,
+                "token": robot_token_issue(robot=robot),
+                "dock": robot.dock.code,
+                "protocol": robot.protocol,
+                "manufacturer": robot.manufacturer,
+                "serial_number": robot.serial_number,
+            }
+            for robot in rows
         ]
         fleet = {
             "server_url": options["server_url"],
@@ -146,6 +166,11 @@ class Command(BaseCommand):
             "robots": robots,
             "traffic_token": ApiToken.issue(self._traffic_user()),
             "badges": self._nurse_badge(site),
+            "mqtt": {
+                "host": settings.VDA5050_MQTT_HOST,
+                "port": settings.VDA5050_MQTT_PORT,
+                "interface": settings.VDA5050_INTERFACE,
+            },
         }
         path = Path(options["fleet_file"])
         write_private(path, fleet)
@@ -167,6 +192,21 @@ class Command(BaseCommand):
         membership.save(update_fields=["unit"])
         membership_badge_set(membership=membership, badge=badge)
         return {ward.code: badge}
+
+    def _vda5050_declare(self, robots: list[Robot], share: float) -> None:
+        if not 0 <= share <= 1:
+            raise CommandError(f"--vda5050: a share from 0 to 1, not {share:g}")
+        count = round(share * len(robots))
+        for n, robot in enumerate(robots):
+            if n >= len(robots) - count:
+                robot_protocol_declare(
+                    robot=robot,
+                    protocol=RobotProtocol.VDA5050,
+                    manufacturer=VDA5050_MANUFACTURER,
+                    serial_number=robot.code,
+                )
+            else:
+                robot_protocol_declare(robot=robot, protocol=RobotProtocol.HEARTBEAT)
 
     def _traffic_user(self):
         User = get_user_model()

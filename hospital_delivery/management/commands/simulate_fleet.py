@@ -3,19 +3,27 @@
 The robots know what real ones would: the site FILE (their map), their token and the server's
 URLs, read from the fleet file that `manage.py demo_setup` writes (var/fleet.json). They speak
 HTTP (and the push websocket) only; this command never touches the database.
+
+Robots the fleet file says speak VDA 5050 (demo_setup --vda5050) run as simulated VDA 5050
+vehicles instead (robotsim/vda5050.py): MQTT to the broker the fleet file names, where the
+VDA 5050 bridge (manage.py vda5050_bridge) makes them members of the fleet.
 """
 
+import dataclasses
+import math
 import random
 import signal
 import threading
 
 from django.core.management.base import BaseCommand, CommandError
 
+from robots.router import site_map_from_file
 from robots.sitefile import SiteFileInvalid, site_file_read
 from robotsim.fleet import Fleet, FleetConfig, RobotSpec, fleet_file_read
 from robotsim.network import NetworkModel
 from robotsim.simulator import Behaviour
 from robotsim.traffic import HttpMapSource
+from robotsim.vda5050 import VdaVehicle
 
 
 def _pair(text: str) -> tuple[float, float]:
@@ -30,6 +38,8 @@ def _check_options(options) -> None:
         raise CommandError(f"--traffic: must be 0 or more, not {options['traffic']:g}")
     if not 0 <= options["secure_share"] <= 1:
         raise CommandError(f"--secure-share: must be 0 to 1, not {options['secure_share']:g}")
+    if options["vda5050"] is not None and not 0 <= options["vda5050"] <= 1:
+        raise CommandError(f"--vda5050: must be 0 to 1, not {options['vda5050']:g}")
     low, high = options["staff_delay"]
     if not 0 <= low <= high:
         raise CommandError(f"--staff-delay: want 0 <= MIN <= MAX, not {low:g},{high:g}")
@@ -72,6 +82,14 @@ class Command(BaseCommand):
             default=0.3,
             help="share of random medication deliveries that are secure (locked, PIN)",
         )
+        parser.add_argument(
+            "--vda5050",
+            type=float,
+            default=None,
+            help="share (0..1) of the robots, the last ones, to run as VDA 5050 vehicles over "
+            "MQTT; they must be declared so (demo_setup --vda5050). Default: as the fleet "
+            "file says",
+        )
         parser.add_argument("--seed", type=int, default=None)
         parser.add_argument("--duration", type=float, help="stop after this many real seconds")
         parser.add_argument(
@@ -80,6 +98,9 @@ class Command(BaseCommand):
 
     def handle(self, *args, **options):
         config = self._config(options)
+        vehicles = self._vehicles(config, options)
+        heartbeat = tuple(r for r in config.robots if r.code not in {v[0] for v in vehicles})
+        config = dataclasses.replace(config, robots=heartbeat)
         try:
             fleet = Fleet(config)
         except ValueError as exc:  # a dead zone where robots wait, traffic without a token
@@ -93,9 +114,20 @@ class Command(BaseCommand):
             timer.daemon = True
             timer.start()
         self._banner(config)
+        started = [vehicle for _, vehicle in vehicles]
+        for vehicle in started:
+            vehicle.start()
+        if started:
+            first = started[0]
+            self.stdout.write(
+                f"VDA 5050 vehicles {', '.join(code for code, _ in vehicles)} over MQTT "
+                f"({first.host}:{first.port}, topics {first.prefix.split('/')[0]}/v2/...)"
+            )
         try:
             fleet.run(stop, status_every=options["status_every"])
         finally:
+            for vehicle in started:
+                vehicle.stop()
             for signum, handler in previous.items():
                 signal.signal(signum, handler)
         self.stdout.write(f"fleet stopped; network: {fleet.network_stats()}")
@@ -144,6 +176,43 @@ class Command(BaseCommand):
         token = file.get("traffic_token")
         server = options["server"] or file["server_url"]
         return HttpMapSource(server, token, site["site"]) if token else None
+
+    def _vehicles(self, config: FleetConfig, options) -> list[tuple[str, VdaVehicle]]:
+        """(code, vehicle) of the robots to run as VDA 5050 vehicles."""
+        file = fleet_file_read(options["fleet"])
+        entries = {r["code"]: r for r in file["robots"]}
+        codes = [r.code for r in config.robots]
+        if options["vda5050"] is None:
+            chosen = [c for c in codes if entries[c].get("protocol") == "vda5050"]
+        else:
+            chosen = codes[len(codes) - math.floor(options["vda5050"] * len(codes) + 0.5) :]
+        undeclared = [c for c in chosen if not entries[c].get("serial_number")]
+        if undeclared:
+            raise CommandError(
+                f"not VDA 5050 robots on the server: {', '.join(undeclared)} "
+                "(manage.py demo_setup --vda5050 SHARE declares them)"
+            )
+        mqtt = file.get("mqtt", {})
+        site_map = site_map_from_file(config.site)
+        rng = random.Random(config.seed)
+        return [
+            (
+                code,
+                VdaVehicle(
+                    site_map=site_map,
+                    manufacturer=entries[code]["manufacturer"],
+                    serial_number=entries[code]["serial_number"],
+                    dock=entries[code]["dock"],
+                    host=mqtt.get("host", "127.0.0.1"),
+                    port=mqtt.get("port", 1883),
+                    interface=mqtt.get("interface", "uagv"),
+                    speedup=config.speedup,
+                    staff_delay=options["staff_delay"],
+                    rng=random.Random(rng.random()),
+                ),
+            )
+            for code in chosen
+        ]
 
     def _robots(self, file: dict, wanted: str | None) -> tuple[RobotSpec, ...]:
         robots = [RobotSpec(r["code"], r["token"], r["dock"]) for r in file["robots"]]

@@ -1,0 +1,184 @@
+"""The VDA 5050 master-control bridge: MQTT in and out, one Link per vehicle.
+
+Topics as the standard names them, `<interface>/<majorVersion>/<manufacturer>/<serialNumber>/
+<topic>` (`uagv/v2/Acme/SN-7/state`). The bridge subscribes to every vehicle's `connection` and
+`state`, and publishes `order` and `instantActions`. Everything is handled on paho's network
+thread, one message after another, so one vehicle's heartbeats are applied in order.
+
+A message that is not JSON, fails its schema, names another vehicle than its topic, comes from
+a vehicle no robot row declares, or stands for a heartbeat the board refuses, is logged and
+counted (vda5050.metrics) and changes nothing; nothing a message does can stop the bridge.
+"""
+
+import json
+import logging
+import uuid
+from datetime import UTC, datetime
+
+import paho.mqtt.client as mqtt
+from django.db import close_old_connections, connections
+
+from vda5050 import metrics
+from vda5050.link import Link, Outgoing
+from vda5050.services import (
+    HeartbeatRefused,
+    vehicle_connection_lost,
+    vehicle_find,
+    vehicle_heartbeat,
+)
+from vda5050.validation import MessageInvalid, message_parse
+
+logger = logging.getLogger("vda5050")
+
+MAJOR_VERSION = "v2"
+VERSION = "2.0.0"
+QOS = 1
+
+
+def topic_of(interface: str, manufacturer: str, serial_number: str, topic: str) -> str:
+    return f"{interface}/{MAJOR_VERSION}/{manufacturer}/{serial_number}/{topic}"
+
+
+def wire_time() -> str:
+    return datetime.now(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
+
+
+class Bridge:
+    def __init__(self, *, host: str, port: int, interface: str):
+        self.host, self.port, self.interface = host, port, interface
+        self.links: dict[tuple[str, str], Link] = {}
+        self.last_header: dict[tuple[str, str], int] = {}
+        self.headers: dict[tuple[str, str, str], int] = {}
+        self.client = mqtt.Client(
+            mqtt.CallbackAPIVersion.VERSION2, client_id=f"hd-bridge-{uuid.uuid4().hex[:10]}"
+        )
+        self.client.on_connect = self._on_connect
+        self.client.on_message = self._on_message
+        self.client.on_disconnect = self._on_disconnect
+
+    # --- Running ----------------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Connect and handle messages on a thread of paho's (tests); stop() ends it."""
+        self.client.connect(self.host, self.port, keepalive=10)
+        self.client.loop_start()
+
+    def run_forever(self) -> None:
+        """Connect and handle messages until disconnected (the management command)."""
+        self.client.connect(self.host, self.port, keepalive=10)
+        self.client.loop_forever(retry_first_connection=True)
+
+    def stop(self) -> None:
+        self.client.disconnect()
+        self.client.loop_stop()
+
+    def _on_connect(self, client, userdata, flags, reason_code, properties=None) -> None:
+        if reason_code.is_failure:
+            logger.error("MQTT connection refused: %s", reason_code)
+            return
+        prefix = f"{self.interface}/{MAJOR_VERSION}/+/+"
+        client.subscribe([(f"{prefix}/connection", QOS), (f"{prefix}/state", QOS)])
+        logger.info("VDA 5050 bridge on %s:%s, topics %s/...", self.host, self.port, prefix)
+
+    def _on_disconnect(self, client, userdata, flags, reason_code, properties=None) -> None:
+        # On paho's thread, which owns the database connection the handlers used.
+        connections.close_all()
+        if reason_code.is_failure:
+            logger.warning("MQTT connection lost (%s); reconnecting", reason_code)
+
+    def _on_message(self, client, userdata, message) -> None:
+        self.handle(message.topic, message.payload)
+
+    # --- Handling one message ---------------------------------------------------------------
+
+    def handle(self, topic: str, payload: bytes) -> None:
+        """Apply one message; never raises."""
+        parts = topic.split("/")
+        kind = parts[-1] if len(parts) == 5 else "unknown"
+        try:
+            close_old_connections()  # a connection the database dropped is replaced
+            self._handle(parts, kind, payload)
+        except MessageInvalid as invalid:
+            logger.warning("dropped a %s message on %s: %s", kind, topic, invalid)
+            metrics.message_rejected(topic=kind, reason=invalid.reason)
+        except Exception:
+            logger.exception("error handling a %s message on %s", kind, topic)
+            metrics.message_rejected(topic=kind, reason="error")
+
+    def _handle(self, parts: list[str], kind: str, payload: bytes) -> None:
+        if kind not in ("connection", "state"):
+            raise MessageInvalid("topic", "not a connection or state topic")
+        message = message_parse(kind, payload)
+        identity = (parts[2], parts[3])
+        if (message["manufacturer"], message["serialNumber"]) != identity:
+            raise MessageInvalid("identity", "manufacturer/serialNumber differ from the topic's")
+        link = self._link(identity)
+        if kind == "connection":
+            self._connection(link, identity, message)
+        else:
+            self._state(link, identity, message)
+        metrics.message_applied(topic=kind)
+
+    def _link(self, identity: tuple[str, str]) -> Link:
+        link = self.links.get(identity)
+        if link is None:
+            vehicle = vehicle_find(manufacturer=identity[0], serial_number=identity[1])
+            if vehicle is None:
+                raise MessageInvalid("unknown_vehicle", f"no robot is vehicle {identity}")
+            link = self.links[identity] = Link(
+                robot_id=vehicle.robot_id,
+                robot_code=vehicle.code,
+                dock=vehicle.dock,
+                site_map=vehicle.site_map,
+                router=vehicle.router,
+            )
+            if vehicle.plan is not None:
+                link.resume(vehicle.plan)
+        return link
+
+    def _connection(self, link: Link, identity: tuple[str, str], message: dict) -> None:
+        state = message["connectionState"]
+        logger.info("%s: connection %s", link.robot_code, state)
+        if state == "ONLINE":
+            self.last_header.pop(identity, None)  # a restarted vehicle counts from 0 again
+            return
+        presence = vehicle_connection_lost(robot_id=link.robot_id, graceful=state == "OFFLINE")
+        logger.info("%s: now %s", link.robot_code, presence)
+
+    def _state(self, link: Link, identity: tuple[str, str], message: dict) -> None:
+        last = self.last_header.get(identity)
+        if last is not None and message["headerId"] <= last:
+            raise MessageInvalid("stale", f"headerId {message['headerId']} after {last}")
+        self.last_header[identity] = message["headerId"]
+        messages = self._apply(link, link.heartbeat(message))
+        for outgoing in link.messages(messages):
+            self.publish(identity, outgoing)
+
+    def _apply(self, link: Link, heartbeat: dict) -> list[dict]:
+        try:
+            messages = vehicle_heartbeat(robot_id=link.robot_id, heartbeat=heartbeat)
+        except HeartbeatRefused as refused:
+            # As a robot does: drop the events and requests named, send the rest at once.
+            if not link.drop_refused(list(refused.errors)):
+                raise MessageInvalid("refused", json.dumps(refused.errors)[:300]) from None
+            heartbeat = {**heartbeat, "events": link.events, "requests": link.requests}
+            messages = vehicle_heartbeat(robot_id=link.robot_id, heartbeat=heartbeat)
+        link.applied()
+        return messages
+
+    # --- Publishing -------------------------------------------------------------------------
+
+    def publish(self, identity: tuple[str, str], outgoing: Outgoing) -> None:
+        manufacturer, serial_number = identity
+        key = (manufacturer, serial_number, outgoing.topic)
+        self.headers[key] = self.headers.get(key, -1) + 1
+        body = {
+            "headerId": self.headers[key],
+            "timestamp": wire_time(),
+            "version": VERSION,
+            "manufacturer": manufacturer,
+            "serialNumber": serial_number,
+            **outgoing.body,
+        }
+        topic = topic_of(self.interface, manufacturer, serial_number, outgoing.topic)
+        self.client.publish(topic, json.dumps(body), qos=QOS)

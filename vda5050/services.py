@@ -1,0 +1,96 @@
+"""What the VDA 5050 bridge reads and writes. Writes go through the services a heartbeat
+robot's requests go through: a vehicle's state is a heartbeat (boards.services.heartbeat_apply,
+with the robot's row locked, so every rule and every hook runs as for a heartbeat robot), its
+lost connection a presence flip (robots.services.robot_connection_lost)."""
+
+from dataclasses import dataclass
+
+from django.db import transaction
+
+from boards.protocol import message_wire
+from boards.serializers import HeartbeatSerializer
+from boards.services import HeartbeatRejected, heartbeat_apply
+from core.errors import flatten_errors
+from robots.choices import RobotProtocol
+from robots.mapcache import router_for, site_map
+from robots.models import Robot
+from robots.router import Router, SiteMap
+from robots.services import robot_connection_lost, robot_lock
+from scheduling.models import RobotPlan, TaskStop, task_pk
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    robot_id: int
+    code: str
+    dock: str
+    site_map: SiteMap
+    router: Router
+    plan: dict | None  # the robot's current plan, stops done left out (after a restart)
+
+
+class HeartbeatRefused(Exception):
+    """The heartbeat a state stands for was refused; nothing of it was applied."""
+
+    def __init__(self, errors: dict[str, list[str]]):
+        super().__init__(errors)
+        self.errors = errors
+
+
+def vehicle_find(*, manufacturer: str, serial_number: str) -> Vehicle | None:
+    """The VDA 5050 robot with this identity, with its site's map, or None."""
+    robot = (
+        Robot.objects.filter(
+            protocol=RobotProtocol.VDA5050, manufacturer=manufacturer, serial_number=serial_number
+        )
+        .select_related("site", "dock")
+        .first()
+    )
+    if robot is None:
+        return None
+    return Vehicle(
+        robot_id=robot.pk,
+        code=robot.code,
+        dock=robot.dock.code,
+        site_map=site_map(robot.site),
+        router=router_for(robot.site),
+        plan=vehicle_plan_now(robot_id=robot.pk),
+    )
+
+
+def vehicle_plan_now(*, robot_id: int) -> dict | None:
+    """The last plan posted for the robot, without the stops done since: what a bridge that
+    starts (or restarts) while the vehicle is out puts it back on."""
+    plan = RobotPlan.objects.filter(robot_id=robot_id).first()
+    if plan is None:
+        return None
+    done = set(
+        TaskStop.objects.filter(task__robot_id=robot_id, done_at__isnull=False).values_list(
+            "task_id", "index"
+        )
+    )
+    stops = [
+        stop
+        for stop in plan.body["stops"]
+        if "task" not in stop or (task_pk(stop["task"]), stop["stop"]) not in done
+    ]
+    return {"plan_version": plan.version, "stops": stops}
+
+
+@transaction.atomic
+def vehicle_heartbeat(*, robot_id: int, heartbeat: dict) -> list[dict]:
+    """Apply the heartbeat a vehicle's state stands for; the board's messages, as robots get
+    them. HeartbeatRefused (nothing applied) where a robot would get a 400."""
+    robot = robot_lock(robot_id)
+    serializer = HeartbeatSerializer(data=heartbeat, context={"site_map": site_map(robot.site)})
+    if not serializer.is_valid():
+        raise HeartbeatRefused(flatten_errors(serializer.errors))
+    try:
+        reply = heartbeat_apply(robot=robot, heartbeat=serializer.validated_data)
+    except HeartbeatRejected as rejected:
+        raise HeartbeatRefused(flatten_errors(rejected.errors)) from None
+    return [message_wire(message) for message in reply.messages]
+
+
+def vehicle_connection_lost(*, robot_id: int, graceful: bool) -> str:
+    return robot_connection_lost(robot_id=robot_id, graceful=graceful)
