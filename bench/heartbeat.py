@@ -97,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--capacity",
         type=int,
-        default=int(os.environ.get("HEARTBEAT_CAPACITY", 300)),
+        default=int(os.environ.get("HEARTBEAT_CAPACITY", 250)),
         help="the server's HEARTBEAT_CAPACITY (heartbeats/s; 0: robots always told 1 s)",
     )
     args = parser.parse_args(argv)
@@ -151,6 +151,8 @@ def _redis_stalled_rows(url: str, workers: int, robots, settings: Settings) -> l
                 daphne=False,
                 worker=False,
                 conn_max_age=60,
+                # Every robot at 1 Hz, whatever the rows before left not yet offline.
+                env={"HEARTBEAT_CAPACITY": "0"},
             )
             with stack:
                 _load(stack, robots, "heartbeat", settings)  # warm the workers

@@ -265,7 +265,7 @@ HEARTBEAT_MAX_BYTES = 64 * 1024
 # Heartbeats per second the deployment's web nodes take together (bench/heartbeat.py measures a
 # node's): when the fleet would send more at the sites' intervals, every robot is told a longer
 # heartbeat_interval (robots/cadence.py). 0 turns that off.
-HEARTBEAT_CAPACITY = env_int("HEARTBEAT_CAPACITY", 300, minimum=0)
+HEARTBEAT_CAPACITY = env_int("HEARTBEAT_CAPACITY", 250, minimum=0)
 # The longest interval ever told; with many robots on a small server, past it heartbeats queue.
 HEARTBEAT_INTERVAL_MAX = env_int("HEARTBEAT_INTERVAL_MAX", 10, minimum=1)
 

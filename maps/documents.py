@@ -9,7 +9,7 @@ import math
 
 import yaml
 
-from robots.choices import ResourceKind
+from robots.choices import ResourceKind, RobotProtocol
 from robots.models import Edge, Floor, Resource, ResourceWaypoint, Robot, Site, Waypoint
 from robots.sitefile import SITE_SETTINGS
 
@@ -102,6 +102,12 @@ def _robot(robot: Robot) -> dict:
         entry["capacity"] = robot.capacity
     if robot.name:
         entry["name"] = robot.name
+    if robot.protocol == RobotProtocol.VDA5050:
+        entry.update(
+            protocol=robot.protocol,
+            manufacturer=robot.manufacturer,
+            serial_number=robot.serial_number,
+        )
     return entry
 
 

@@ -255,3 +255,20 @@ def test_it_refuses_a_map_removing_the_waypoint_a_robot_is_driving_to_even_to_re
 def test_it_exports_a_site_in_seven_queries_however_big(site, robot, django_assert_num_queries):
     with django_assert_num_queries(7):
         site_document(site)
+
+
+def test_an_export_keeps_each_robots_protocol_and_the_sites_unattended_policy(site, robot):
+    from robots.services import robot_protocol_declare
+
+    robot_protocol_declare(
+        robot=robot, protocol="vda5050", manufacturer="acme", serial_number="SN-7"
+    )
+    Site.objects.filter(pk=site.pk).update(unattended_timeout=2400.0)
+    site.refresh_from_db()
+
+    document = site_file_parse(document_yaml(site_document(site)), name="tiny.yaml")
+    site_load(data=document)
+
+    robot = Robot.objects.get(pk=robot.pk)
+    assert (robot.protocol, robot.manufacturer, robot.serial_number) == ("vda5050", "acme", "SN-7")
+    assert Site.objects.get(pk=site.pk).unattended_timeout == 2400.0
