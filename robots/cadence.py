@@ -50,7 +50,8 @@ def heartbeat_interval_told(site: Site) -> float:
     if needed <= site.heartbeat_interval:
         return site.heartbeat_interval
     stepped = math.ceil(needed / STEP_SECONDS) * STEP_SECONDS
-    return min(max(stepped, site.heartbeat_interval), settings.HEARTBEAT_INTERVAL_MAX)
+    # The cap bounds how much the load lengthens it, never shortens a site's own interval.
+    return max(min(stepped, settings.HEARTBEAT_INTERVAL_MAX), site.heartbeat_interval)
 
 
 def _robots_heartbeating() -> int:

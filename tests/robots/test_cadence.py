@@ -74,3 +74,12 @@ def test_a_robot_that_obeys_a_longer_interval_is_not_flipped(robot_http, robot, 
     presence_sweep(now=seen + timedelta(seconds=3 * told))
     robot.refresh_from_db()
     assert robot.presence == "unreachable"
+
+
+def test_the_cap_never_shortens_a_sites_own_longer_interval(robot_http, robot, settings):
+    settings.HEARTBEAT_CAPACITY = 1
+    settings.HEARTBEAT_INTERVAL_MAX = 4
+    type(robot.site).objects.filter(pk=robot.site.pk).update(heartbeat_interval=6.0)
+    robots_heartbeating(robot.site, 20)
+
+    assert robot_http.heartbeat(1)["heartbeat_interval"] == 6.0
