@@ -110,7 +110,7 @@ def plan_restore(*, robot: Robot, now: datetime) -> RobotPlan | None:
     The plan is made afresh from where the robot is now, with a newer version, so a robot that
     applies only newer plans takes it. Called with the robot's row locked, from its first
     heartbeat after the restart."""
-    current = RobotPlan.objects.filter(robot=robot).select_related("message").first()
+    current = _current_plan(robot)
     if current is None or robot.plan_version >= current.version or _may_be_pending(current):
         return None
     logger.info("%s restarted without plan %d: posting it again", robot.code, current.version)
@@ -124,7 +124,7 @@ def plan_withdraw_pending(*, robot: Robot, reason: str, now: datetime) -> int:
 
 
 def _post(robot: Robot, stops: list[dict], tasks: dict[str, dict], now: datetime) -> RobotPlan:
-    current = RobotPlan.objects.filter(robot=robot).select_related("message").first()
+    current = _current_plan(robot)
     version = max(current.version if current else 0, robot.plan_version) + 1
     body = protocol.plan_body(version=version, stops=stops, tasks=tasks)
     message = board_post(
@@ -142,6 +142,11 @@ def _post(robot: Robot, stops: list[dict], tasks: dict[str, dict], now: datetime
     current.version, current.body, current.message, current.posted_at = version, body, message, now
     current.save(update_fields=["version", "body", "message", "posted_at"])
     return current
+
+
+def _current_plan(robot: Robot) -> RobotPlan | None:
+    """The last plan posted for the robot, with its board message."""
+    return RobotPlan.objects.filter(robot=robot).select_related("message").first()
 
 
 def _may_be_pending(current: RobotPlan | None) -> bool:
