@@ -100,10 +100,16 @@ def main(argv: list[str] | None = None) -> int:
         default=int(os.environ.get("HEARTBEAT_CAPACITY", 250)),
         help="the server's HEARTBEAT_CAPACITY (heartbeats/s; 0: robots always told 1 s)",
     )
+    parser.add_argument("--warmup", type=float, help="seconds of each row before measuring")
+    parser.add_argument("--measure", type=float, help="seconds measured per row")
     args = parser.parse_args(argv)
     settings = QUICK if args.quick else FULL
-    if args.robots:
-        settings = Settings(tuple(args.robots), settings.warmup, settings.measure, args.robots[0])
+    settings = Settings(
+        tuple(args.robots or settings.counts),
+        settings.warmup if args.warmup is None else args.warmup,
+        settings.measure if args.measure is None else args.measure,
+        args.robots[0] if args.robots else settings.stalled,
+    )
     postgres = not args.database.startswith("sqlite")
     workers = args.web_workers or ((2 * os.cpu_count() + 1) if postgres else 3)
     os.environ.setdefault("SECRET_KEY", "bench-only")  # for the servers and manage.py too
