@@ -10,6 +10,7 @@ from core.fields import (
     StrictFloatField,
     StrictIntegerField,
 )
+from core.serializers import FieldsKeptPerThread
 from robots.choices import REPORTABLE_STATUSES
 
 MAX_EVENTS = 500
@@ -129,7 +130,7 @@ class AcquireReleaseSerializer(SiteCodesMixin, serializers.Serializer):
         return request
 
 
-class HeartbeatSerializer(serializers.Serializer):
+class HeartbeatSerializer(FieldsKeptPerThread, serializers.Serializer):
     boot_id = StrictCharField(min_length=1, max_length=64)
     seq = StrictIntegerField(min_value=0, max_value=MAX_SEQ)
     sent_at = StrictDateTimeField(required=False, help_text="informational only")

@@ -14,6 +14,7 @@ from django.utils import timezone
 from boards.hooks import heartbeat_applied
 from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.push import wake_now, wake_on_commit
+from core.statements import Statement
 from robots.cadence import heartbeat_interval_told
 from robots.models import Robot
 from robots.services import robot_heartbeat_record
@@ -168,7 +169,13 @@ def _index_of_each_id(items: list[dict]) -> dict[str, int]:
 
 def board_pending(*, robot: Robot) -> list[BoardMessage]:
     """Messages on the robot's board, oldest first: what every heartbeat response carries."""
-    return list(BoardMessage.objects.pending().filter(robot=robot).order_by("id"))
+    return _PENDING.all(robot_id=robot.pk)
+
+
+_PENDING = Statement(  # every heartbeat reads it: compiled once (core.statements)
+    lambda robot_id: BoardMessage.objects.pending().filter(robot_id=robot_id).order_by("id"),
+    robot_id=int,
+)
 
 
 def board_ack(*, robot: Robot, public_ids: list[str], now: datetime) -> list[BoardMessage]:

@@ -14,7 +14,8 @@ from django.db.models import Q, QuerySet
 from django.utils import timezone
 
 from core import changes
-from core.tokens import token_new
+from core.statements import Statement, row_update
+from core.tokens import token_hash, token_new
 from robots.badges import badge_hash
 from robots.choices import Presence
 from robots.hooks import presence_changed, token_issued
@@ -36,9 +37,10 @@ LAST_SEEN_REFRESH_SECONDS = 10
 
 def robot_authenticate(*, token: str, lock: bool = False) -> Robot | None:
     """The robot a bearer token belongs to, or None; with `lock`, its row locked for the rest
-    of the transaction, as robot_lock does."""
-    robots = Robot.objects.with_token(token)
-    return (_locking(robots) if lock else robots.select_related("site")).first()
+    of the transaction, as robot_lock does (every heartbeat: compiled once, core.statements)."""
+    if lock:
+        return _ROBOT_BY_TOKEN_LOCKED.first(token_hash=token_hash(token))
+    return Robot.objects.with_token(token).select_related("site").first()
 
 
 @transaction.atomic
@@ -84,6 +86,11 @@ def _locking(robots: QuerySet[Robot]) -> QuerySet[Robot]:
     return robots.select_for_update(of=("self",), no_key=True).select_related("site")
 
 
+_ROBOT_BY_TOKEN_LOCKED = Statement(
+    lambda token_hash: _locking(Robot.objects.filter(token_hash=token_hash))[:1], token_hash=str
+)
+
+
 def robot_heartbeat_record(
     *,
     robot: Robot,
@@ -107,7 +114,7 @@ def robot_heartbeat_record(
         robot.boot_id, robot.seq = boot_id, seq
         update_fields += [*Robot.STATE_FIELDS, "boot_id", "seq"]
     previous = robot.mark_seen(now, interval)
-    robot.save(update_fields=update_fields)
+    row_update(robot, update_fields)  # robot.save(update_fields=...), compiled once
     if previous is not None:
         _presence_record(robot, old=previous, new=Presence.ONLINE, at=now, cause="heartbeat")
     _activity_record(robot, previous=doing, at=now)

@@ -1,0 +1,161 @@
+"""Statements of the heartbeat's hot path, compiled once per process instead of once per call.
+
+Django builds a queryset's SQL again every time it is evaluated: the lookups are resolved, the
+joins set up, every column named and quoted. For the statements a heartbeat always runs (find
+the robot by its token and lock its row; store the state it reports; read its board) that was
+about a third of the heartbeat's CPU (bench/heartbeat_cpu.py; README "Serving"), spent producing
+the same text with other values. Here a statement is built once by the ORM with stand-in values,
+compiled once per database vendor, and then run with each call's values put where the
+stand-ins were; its rows become model instances the way Django's own iterable makes them
+(from_db, the select_related populators, the fields' converters). So the statement stays
+written with the ORM, where the models define it, and a wrong stand-in fails at the first call,
+not silently.
+
+Every execution goes through the connection's cursor: execute wrappers (core/commits.py),
+query logging and the test suite's query counts see them as any other query.
+"""
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from itertools import count
+
+from django.db import DatabaseError, connection
+from django.db.models import Model, QuerySet, signals
+from django.db.models.query import get_related_populators
+
+_stand_ins = count(7_300_000_000_000_001)
+
+
+@dataclass(frozen=True)
+class _Compiled:
+    sql: str
+    params: tuple
+    slots: dict[str, tuple[int, ...]]  # value name -> its positions among the params
+    compiler: object
+    converters: dict
+    init_list: list[str]
+    fields_start: int
+    fields_end: int
+    related_populators: list
+
+    def bind(self, values: dict) -> list:
+        params = list(self.params)
+        for name, positions in self.slots.items():
+            for position in positions:
+                params[position] = values[name]
+        return params
+
+    def instances(self, rows: list[tuple]) -> list[Model]:
+        if self.converters:
+            rows = self.compiler.apply_converters(rows, self.converters)
+        model = self.compiler.klass_info["model"]
+        db = connection.alias
+        objects = []
+        for row in rows:
+            obj = model.from_db(db, self.init_list, row[self.fields_start : self.fields_end])
+            for populator in self.related_populators:
+                populator.populate(row, obj)
+            objects.append(obj)
+        return objects
+
+
+class Statement:
+    """A queryset built by `build` from named values (their types in `kinds`: str or int),
+    compiled once per database vendor, then run with other values.
+
+        robot_by_token = Statement(lambda token_hash: Robot.objects.filter(...), token_hash=str)
+        robot_by_token.first(token_hash=...)
+
+    Only plain model querysets (select_related allowed; no annotations, values() or
+    prefetches): what ModelIterable makes of them is rebuilt here without those cases.
+    """
+
+    def __init__(self, build: Callable[..., QuerySet], **kinds: type):
+        self._build, self._kinds = build, kinds
+        self._compiled: dict[str, _Compiled] = {}
+
+    def all(self, **values) -> list[Model]:
+        compiled = self._compiled.get(connection.vendor) or self._compile()
+        with connection.cursor() as cursor:
+            cursor.execute(compiled.sql, compiled.bind(values))
+            rows = cursor.fetchall()
+        return compiled.instances(rows)
+
+    def first(self, **values) -> Model | None:
+        found = self.all(**values)
+        return found[0] if found else None
+
+    def _compile(self) -> _Compiled:
+        stand_ins = {name: _stand_in(name, kind) for name, kind in self._kinds.items()}
+        queryset = self._build(**stand_ins)
+        if queryset.query.annotations or queryset._fields or queryset._prefetch_related_lookups:
+            raise TypeError("Statement takes plain model querysets only")
+        compiler = queryset.query.get_compiler(connection=connection)
+        sql, params = compiler.as_sql()  # also sets compiler.select and klass_info
+        slots = {
+            name: tuple(n for n, param in enumerate(params) if param == stand_in)
+            for name, stand_in in stand_ins.items()
+        }
+        missing = [name for name, positions in slots.items() if not positions]
+        if missing:
+            raise TypeError(f"the statement's SQL does not carry {missing} as parameters")
+        select, klass_info = compiler.select, compiler.klass_info
+        start, end = klass_info["select_fields"][0], klass_info["select_fields"][-1] + 1
+        compiled = _Compiled(
+            sql=sql,
+            params=tuple(params),
+            slots=slots,
+            compiler=compiler,
+            converters=compiler.get_converters([s[0] for s in select[: compiler.col_count]]),
+            init_list=[column[0].target.attname for column in select[start:end]],
+            fields_start=start,
+            fields_end=end,
+            related_populators=get_related_populators(klass_info, select, connection.alias),
+        )
+        self._compiled[connection.vendor] = compiled
+        return compiled
+
+
+def _stand_in(name: str, kind: type):
+    if kind is int:
+        return next(_stand_ins)
+    if kind is str:
+        return f"\x1fstand-in {name} {next(_stand_ins)}\x1f"
+    raise TypeError(f"{name}: stand-ins are str or int, not {kind}")
+
+
+_updates: dict[tuple, tuple[str, list]] = {}
+
+
+def row_update(instance: Model, fields: Sequence[str]) -> None:
+    """instance.save(update_fields=fields), with the UPDATE compiled once per model, fields and
+    vendor. Falls back to save() where that does more than write the values: a model with
+    pre_save or post_save receivers, or a value that is an expression."""
+    model = type(instance)
+    if signals.pre_save.has_listeners(model) or signals.post_save.has_listeners(model):
+        instance.save(update_fields=fields)
+        return
+    sql, concrete = _updates.get((model, tuple(fields), connection.vendor)) or _update_compile(
+        model, fields
+    )
+    values = [field.pre_save(instance, False) for field in concrete]
+    if any(hasattr(value, "resolve_expression") for value in values):
+        instance.save(update_fields=fields)
+        return
+    prepared = zip(concrete, values, strict=True)
+    params = [field.get_db_prep_save(value, connection) for field, value in prepared]
+    with connection.cursor() as cursor:
+        cursor.execute(sql, [*params, instance.pk])
+        if cursor.rowcount == 0:  # as save() says it
+            raise DatabaseError("Save with update_fields did not affect any rows.")
+
+
+def _update_compile(model: type[Model], fields: Sequence[str]) -> tuple[str, list]:
+    meta, quote = model._meta, connection.ops.quote_name
+    concrete = [meta.get_field(name) for name in fields]
+    if any(not field.concrete or field.primary_key for field in concrete):
+        raise TypeError(f"row_update writes concrete non-key fields only, not {fields}")
+    assignments = ", ".join(f"{quote(field.column)} = %s" for field in concrete)
+    sql = f"UPDATE {quote(meta.db_table)} SET {assignments} WHERE {quote(meta.pk.column)} = %s"
+    _updates[(model, tuple(fields), connection.vendor)] = (sql, concrete)
+    return sql, concrete

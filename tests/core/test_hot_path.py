@@ -1,0 +1,104 @@
+"""The hot path's shortcuts (core/statements.py, core/serializers.py) give what the ORM and DRF
+give without them."""
+
+import copy
+from types import SimpleNamespace
+
+import pytest
+from django.db import DatabaseError, connection, transaction
+from django.test.utils import CaptureQueriesContext
+from django.utils import timezone
+
+from boards.serializers import HeartbeatSerializer
+from boards.services import board_pending, board_post
+from core.statements import Statement, row_update
+from robots.mapcache import site_map
+from robots.models import Robot
+from robots.services import robot_authenticate
+from tests import factories
+
+pytestmark = pytest.mark.django_db
+
+
+def test_a_statement_finds_what_the_orm_finds_with_each_calls_values(site):
+    first, second = factories.robot_create(site, "R1"), factories.robot_create(site, "R2")
+    by_code = Statement(
+        lambda code: Robot.objects.filter(code=code).select_related("site"), code=str
+    )
+
+    found = [by_code.first(code="R2"), by_code.first(code="R1"), by_code.first(code="R9")]
+
+    assert [robot and robot.pk for robot in found] == [second.pk, first.pk, None]
+    assert found[0].site == site
+    assert found[0].site.map_version == site.map_version
+    assert found[0].battery == Robot.objects.get(pk=second.pk).battery
+    assert found[0].errors == Robot.objects.get(pk=second.pk).errors  # converters applied
+
+
+def test_a_statement_runs_through_the_connection_as_any_query(robot):
+    board_post(robot=robot, type="action", body={"action": "pause"})
+
+    with CaptureQueriesContext(connection) as queries:
+        assert [m.body for m in board_pending(robot=robot)] == [{"action": "pause"}]
+        assert [m.body for m in board_pending(robot=robot)] == [{"action": "pause"}]
+
+    assert len(queries) == 2
+    assert queries[0]["sql"] == queries[1]["sql"]
+    assert str(robot.pk) in queries[1]["sql"]
+
+
+def test_a_value_the_sql_does_not_carry_is_refused_at_the_first_call(site):
+    ignores_code = Statement(lambda code: Robot.objects.all(), code=str)
+
+    with pytest.raises(TypeError, match="code"):
+        ignores_code.all(code="R1")
+
+
+def test_the_locking_lookup_locks_the_robots_row(robot):
+    with transaction.atomic(), CaptureQueriesContext(connection) as queries:
+        found = robot_authenticate(token=robot.token, lock=True)
+
+    assert found.pk == robot.pk
+    assert found.site.code == robot.site.code
+    assert robot_authenticate(token="not-a-token", lock=True) is None
+    if connection.vendor == "postgresql":
+        assert "FOR NO KEY UPDATE" in queries[0]["sql"]
+
+
+def test_row_update_writes_what_save_would_and_only_those_fields(robot):
+    now = timezone.now()
+    robot.battery, robot.errors, robot.last_seen_at = 0.42, ["E-STOP"], now
+    robot.name = "not written"
+
+    row_update(robot, ["battery", "errors", "last_seen_at"])
+
+    stored = Robot.objects.get(pk=robot.pk)
+    assert (stored.battery, stored.errors, stored.last_seen_at) == (0.42, ["E-STOP"], now)
+    assert stored.name != "not written"
+
+
+def test_row_update_of_a_row_that_is_not_there_fails_as_save_does(robot):
+    gone = copy.copy(robot)
+    gone.pk = robot.pk + 1000
+
+    with pytest.raises(DatabaseError, match="did not affect any rows"):
+        row_update(gone, ["battery"])
+
+
+def test_serializers_sharing_fields_each_validate_against_their_own_map(site):
+    empty = SimpleNamespace(floors={}, waypoints={}, resources={})  # knows no code at all
+    known = HeartbeatSerializer(
+        data=factories.heartbeat_body(1), context={"site_map": site_map(site)}
+    )
+    assert known.is_valid(), known.errors
+
+    unknown = HeartbeatSerializer(data=factories.heartbeat_body(2), context={"site_map": empty})
+    assert not unknown.is_valid()
+    assert "unknown" in str(unknown.errors["state"])
+
+    again = HeartbeatSerializer(
+        data=factories.heartbeat_body(3), context={"site_map": site_map(site)}
+    )
+    assert again.is_valid(), again.errors
+    assert again.validated_data["seq"] == 3
+    assert known.validated_data["seq"] == 1
