@@ -102,3 +102,16 @@ def test_serializers_sharing_fields_each_validate_against_their_own_map(site):
     assert again.is_valid(), again.errors
     assert again.validated_data["seq"] == 3
     assert known.validated_data["seq"] == 1
+
+
+def test_no_index_covers_what_every_heartbeat_rewrites():
+    # An indexed column that changes turns the heartbeat's in-place (HOT) UPDATE into one that
+    # writes an entry in every index of the table (robots/models/fleet.py).
+    rewritten = {"last_seen_at", "unreachable_at", "offline_at", "reported_at", "seq"}
+    with connection.cursor() as cursor:
+        constraints = connection.introspection.get_constraints(cursor, Robot._meta.db_table)
+
+    indexed = {column for c in constraints.values() if c["index"] for column in c["columns"]}
+
+    assert indexed, "introspection found no index at all"
+    assert not indexed & rewritten
