@@ -48,12 +48,17 @@ def main() -> None:
     options = parser.parse_args()
     rounds, per_round = (2, 100) if options.quick else (5, 1000)
     with temporary_database(options.database) as url:
-        samples = measure(url, rounds=rounds, per_round=per_round)
+        samples, wal = measure(url, rounds=rounds, per_round=per_round)
     today = datetime.datetime.now(datetime.UTC).date()
     print(f"heartbeat CPU benchmark, {today} (UTC), Python {platform.python_version()}")
     print(f"{rounds} rounds of {per_round} heartbeats (after {WARMUP} to warm up)")
     print("CPU ms per heartbeat: " + " ".join(f"{sample:.3f}" for sample in samples))
     print(f"median {statistics.median(samples):.3f} ms")
+    if wal:
+        print(
+            f"WAL bytes per heartbeat: median {statistics.median(wal):.0f} (the server's whole "
+            "write-ahead log: meaningful only when nothing else writes to it)"
+        )
 
 
 def measure(database_url: str, *, rounds: int, per_round: int) -> list[float]:
@@ -77,12 +82,26 @@ def measure(database_url: str, *, rounds: int, per_round: int) -> list[float]:
     token = robot_token_issue(robot=Robot.objects.get(code="R1"))
     beat = _Heartbeats(Client(), token)
     beat.send(WARMUP)
-    samples = []
+    samples, wal = [], []
     for _ in range(rounds):
+        wal_before = _wal_position()
         started = time.process_time()
         beat.send(per_round)
         samples.append((time.process_time() - started) / per_round * 1000)
-    return samples
+        if wal_before is not None:
+            wal.append((_wal_position() - wal_before) / per_round)
+    return samples, wal
+
+
+def _wal_position() -> int | None:
+    """Where PostgreSQL's write-ahead log is, in bytes (None on SQLite)."""
+    from django.db import connection
+
+    if connection.vendor != "postgresql":
+        return None
+    with connection.cursor() as cursor:
+        cursor.execute("SELECT pg_current_wal_lsn() - '0/0'")
+        return int(cursor.fetchone()[0])
 
 
 class _Heartbeats:

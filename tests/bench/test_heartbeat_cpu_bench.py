@@ -1,5 +1,6 @@
 """bench/heartbeat_cpu.py --quick runs to completion in CI."""
 
+import os
 import re
 
 import pytest
@@ -16,3 +17,6 @@ def test_it_measures_the_cpu_time_of_a_heartbeat():
     samples = re.search(r"CPU ms per heartbeat: ([\d. ]+)", output).group(1).split()
     assert len(samples) == 2
     assert all(0 < float(sample) < 1000 for sample in samples)
+    wal = re.search(r"WAL bytes per heartbeat: median (\d+)", output)
+    if os.environ.get("DATABASE_URL", "").startswith("postgres"):
+        assert int(wal.group(1)) > 0  # every heartbeat writes its robot's row
