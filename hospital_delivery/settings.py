@@ -76,6 +76,8 @@ INSTALLED_APPS = [
 ]
 
 MIDDLEWARE = [
+    # First, so that the time every other middleware takes counts as busy (core/busy.py).
+    "core.middleware.BusyMiddleware",
     "django.middleware.security.SecurityMiddleware",
     "core.middleware.RefuseNulMiddleware",
     "whitenoise.middleware.WhiteNoiseMiddleware",
