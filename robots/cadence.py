@@ -72,7 +72,7 @@ class Controller:
             new = shorter
         else:
             return
-        if new != self.interval:
+        if max(new, base) != current:
             logger.info(
                 "heartbeat cadence: busy %.0f%% of %.1f s, interval %.1f -> %.1f s",
                 100 * window.share,
