@@ -76,6 +76,8 @@ INSTALLED_APPS = [
 ]
 
 MIDDLEWARE = [
+    # First, so that the time every other middleware takes counts as busy (core/busy.py).
+    "core.middleware.BusyMiddleware",
     "django.middleware.security.SecurityMiddleware",
     "core.middleware.RefuseNulMiddleware",
     "whitenoise.middleware.WhiteNoiseMiddleware",
@@ -262,9 +264,10 @@ METRICS_TOKEN = env_str("METRICS_TOKEN", "")
 # Robot heartbeat bodies above this size are refused with 413 (protocol v1).
 HEARTBEAT_MAX_BYTES = 64 * 1024
 
-# Heartbeats per second the deployment's web nodes take together (bench/heartbeat.py measures a
-# node's): when the fleet would send more at the sites' intervals, every robot is told a longer
-# heartbeat_interval (robots/cadence.py). 0 turns that off.
+# The operator's ceiling of heartbeats per second the web nodes are asked for together: when the
+# fleet would send more at the sites' intervals, every robot is told a longer heartbeat_interval
+# (robots/cadence.py), as it is whenever the web workers are saturated below it (learned from
+# how busy they are, core/busy.py). 0 turns every lengthening off.
 HEARTBEAT_CAPACITY = env_int("HEARTBEAT_CAPACITY", 250, minimum=0)
 # The longest interval ever told; with many robots on a small server, past it heartbeats queue.
 HEARTBEAT_INTERVAL_MAX = env_int("HEARTBEAT_INTERVAL_MAX", 10, minimum=1)

@@ -1,34 +1,91 @@
-"""The heartbeat interval told to robots: the site's own, longer when the fleet would send more
-heartbeats than the servers take (settings.HEARTBEAT_CAPACITY).
+"""The heartbeat interval told to robots: the site's own, longer while the web servers are
+saturated.
 
 Past its capacity a server does not slow down gracefully: heartbeats queue, robots that wait
 more than 3 intervals for an answer are flipped unreachable and back, and each flip is more
 work. Every answer already tells the robot when to send the next one (`heartbeat_interval`),
 so the server keeps the load it is offered under its capacity by telling a longer interval,
-and shortens it again when robots go offline. Each robot's presence deadline follows the
+and shortens it again when the load falls. Each robot's presence deadline follows the
 interval it was told (Robot.mark_seen), so a robot that obeys is never flipped. Urgent traffic
 does not wait for the interval: the push channel wakes a robot at once.
 
-The load is estimated from the robots that may be heartbeating (not offline), counted at most
-every COUNT_SECONDS per process: no shared state, and no query on nearly every heartbeat.
+The capacity is learned, not set: each web process measures the share of wall time it spends
+serving requests (core/busy.py, every request, over windows of about 2 s), a sample of the
+whole pool's since sync workers share one socket. After a window busier than HIGH_SHARE
+(requests wait for a worker) the interval is lengthened towards the one that would bring the
+share down to AIM_SHARE, at least one step; after a window so idle that one step shorter
+would still leave it under LOW_SHARE (estimated as if the share were proportional to the
+rate), it is shortened by one step, never below the site's own interval. Between the two it
+holds, so a steady load settles on one interval instead of swinging between two; and after a
+change it judges no window until every robot has heard the new interval (the interval before
+the change), so it does not answer one overload twice. No shared state, no query.
+
+settings.HEARTBEAT_CAPACITY stays the operator's ceiling: the robots not offline, heartbeating
+at their sites' intervals, are never asked for more than 90 % of it (counted at most every
+COUNT_SECONDS per process); 0 turns every lengthening off.
 """
 
+import logging
 import math
 import time
 from dataclasses import dataclass
 
 from django.conf import settings
 
+from core.busy import Window, busy
 from robots.choices import Presence
 from robots.models import Robot, Site
+
+logger = logging.getLogger(__name__)
 
 COUNT_SECONDS = 2.0
 # Intervals are told in steps of this many seconds, so robots joining or leaving one by one do
 # not change every robot's interval by a few milliseconds each time.
 STEP_SECONDS = 0.5
-# Aim below the capacity: robots' phases are not spread evenly, and pages, API and sweeps
-# share the servers.
+# Aim below the ceiling: robots' phases are not spread evenly.
 TARGET_SHARE = 0.9
+# Of a web process's wall time spent serving (core/busy.py).
+HIGH_SHARE = 0.8  # busier: requests queue for a worker, lengthen
+AIM_SHARE = 0.6  # what lengthening aims at
+LOW_SHARE = 0.4  # shorten only while one step shorter would stay under this
+
+
+@dataclass
+class Controller:
+    """The interval the load asks for (0: none), judged from windows of the busy share."""
+
+    interval: float = 0.0
+    judged_until: float = -math.inf  # windows ending earlier were judged
+    judge_from: float = -math.inf  # windows starting earlier saw an interval since changed
+
+    def judge(self, window: Window, *, base: float) -> None:
+        """Lengthen or shorten the interval after one window; `base`: the site's interval."""
+        if window.end <= self.judged_until or window.start < self.judge_from:
+            return
+        self.judged_until = window.end
+        current = max(self.interval, base)
+        shorter = max(current - STEP_SECONDS, base)
+        if window.share > HIGH_SHARE:
+            wanted = max(current * window.share / AIM_SHARE, current + STEP_SECONDS)
+            new = min(_stepped(wanted), max(settings.HEARTBEAT_INTERVAL_MAX, base))
+        elif self.interval > base and window.share * current / shorter < LOW_SHARE:
+            new = shorter
+        else:
+            return
+        if max(new, base) != current:
+            logger.info(
+                "heartbeat cadence: busy %.0f%% of %.1f s, interval %.1f -> %.1f s",
+                100 * window.share,
+                window.end - window.start,
+                current,
+                max(new, base),
+            )
+            self.interval = new
+            # Robots hear of it at their next heartbeat, at most `current` seconds from now.
+            self.judge_from = window.end + current
+
+
+_controller = Controller()
 
 
 @dataclass
@@ -42,16 +99,21 @@ _count = _Count()
 
 def heartbeat_interval_told(site: Site) -> float:
     """Seconds the robot should wait before its next heartbeat: the site's interval, or longer
-    when all robots heartbeating at their sites' intervals would exceed the capacity."""
-    capacity = settings.HEARTBEAT_CAPACITY * TARGET_SHARE
-    if not capacity:
+    while the web servers are saturated or the fleet would exceed the operator's ceiling."""
+    if not settings.HEARTBEAT_CAPACITY:
         return site.heartbeat_interval
-    needed = _robots_heartbeating() / capacity  # seconds between one robot's heartbeats
+    if busy.last is not None:
+        _controller.judge(busy.last, base=site.heartbeat_interval)
+    capped = settings.HEARTBEAT_CAPACITY * TARGET_SHARE
+    needed = max(_robots_heartbeating() / capped, _controller.interval)
     if needed <= site.heartbeat_interval:
         return site.heartbeat_interval
-    stepped = math.ceil(needed / STEP_SECONDS) * STEP_SECONDS
     # The cap bounds how much the load lengthens it, never shortens a site's own interval.
-    return max(min(stepped, settings.HEARTBEAT_INTERVAL_MAX), site.heartbeat_interval)
+    return max(min(_stepped(needed), settings.HEARTBEAT_INTERVAL_MAX), site.heartbeat_interval)
+
+
+def _stepped(seconds: float) -> float:
+    return math.ceil(round(seconds / STEP_SECONDS, 9)) * STEP_SECONDS
 
 
 def _robots_heartbeating() -> int:
@@ -63,5 +125,7 @@ def _robots_heartbeating() -> int:
 
 
 def cadence_forget() -> None:
-    """Count again on the next heartbeat (tests)."""
+    """Count again on the next heartbeat, and forget the busy share and what it asked (tests)."""
     _count.read_at = -math.inf
+    vars(_controller).update(vars(Controller()))
+    busy.forget()

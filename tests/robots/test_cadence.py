@@ -1,11 +1,15 @@
-"""The heartbeat interval told to robots follows the load (robots/cadence.py), and presence
-deadlines follow the interval each robot was told, so a robot that obeys is never flipped."""
+"""The heartbeat interval told to robots follows the load (robots/cadence.py): the robots not
+offline against the operator's ceiling, and how busy the web workers are (core/busy.py); and
+presence deadlines follow the interval each robot was told, so a robot that obeys is never
+flipped. The controller is fed windows of the busy share directly: no clock, no sleep."""
 
+import time
 from datetime import timedelta
 
 import pytest
 
-from robots.cadence import cadence_forget
+from core.busy import BusyMeter, Window, busy
+from robots.cadence import HIGH_SHARE, STEP_SECONDS, Controller, cadence_forget
 from robots.models import Robot
 from robots.services import presence_sweep
 from tests import factories
@@ -83,3 +87,178 @@ def test_the_cap_never_shortens_a_sites_own_longer_interval(robot_http, robot, s
     robots_heartbeating(robot.site, 20)
 
     assert robot_http.heartbeat(1)["heartbeat_interval"] == 6.0
+
+
+# --- The interval learned from how busy the web workers are --------------------------------------
+
+WINDOW = 2.0  # seconds of each busy-share window the tests feed the controller
+
+
+def windows(controller, shares, *, base=1.0, start=0.0):
+    """Feed one window per share, back to back; the interval after each."""
+    told = []
+    for n, share in enumerate(shares):
+        at = start + n * WINDOW
+        controller.judge(Window(at, at + WINDOW, share), base=base)
+        told.append(max(controller.interval, base))
+    return told
+
+
+def test_it_lengthens_the_interval_while_the_workers_are_saturated():
+    controller = Controller()
+
+    told = windows(controller, [1.0] * 6)
+
+    # Aimed at a share of 0.6: 1 s x 1.0/0.6 -> 2 s; then no window is judged until every robot
+    # has heard it (the 1 s before), so the second window after lengthens it again: 2 s x 1.67
+    # -> 3.5 s, and so on.
+    assert told == [2.0, 2.0, 3.5, 3.5, 6.0, 6.0]
+
+
+def test_it_does_not_judge_the_windows_before_every_robot_heard_the_new_interval():
+    controller = Controller()
+    windows(controller, [1.0])
+    assert controller.interval == 2.0
+
+    # The window starting at 2 s began before 2 s + the 1 s interval robots were told before.
+    controller.judge(Window(2.5, 4.5, 1.0), base=1.0)
+    assert controller.interval == 2.0
+    controller.judge(Window(3.0, 5.0, 1.0), base=1.0)
+    assert controller.interval == 3.5
+
+
+def test_a_window_is_judged_once():
+    controller = Controller(interval=3.0)
+    window = Window(0.0, WINDOW, 0.1)
+
+    controller.judge(window, base=1.0)
+    controller.judge(window, base=1.0)
+
+    assert controller.interval == 2.5
+
+
+def test_it_shortens_one_step_at_a_time_when_the_load_falls_and_never_below_the_site():
+    controller = Controller(interval=3.0)
+
+    told = windows(controller, [0.05] * 12)
+
+    assert told == [2.5, 2.5, 2.5, 2.0, 2.0, 2.0, 1.5, 1.5, 1.0, 1.0, 1.0, 1.0]
+    assert controller.interval == 1.0
+
+
+def test_it_holds_between_the_thresholds():
+    controller = Controller(interval=3.0)
+
+    # 0.35 at 3 s would be 0.42 at 2.5 s: over LOW_SHARE, so it stays.
+    assert windows(controller, [0.7, 0.5, 0.35, 0.79]) == [3.0] * 4
+
+
+def test_the_learned_interval_is_bounded_by_the_cap(settings):
+    settings.HEARTBEAT_INTERVAL_MAX = 4
+    controller = Controller()
+
+    assert max(windows(controller, [1.0] * 20)) == 4.0
+
+
+def test_the_cap_never_lowers_a_sites_own_longer_interval(settings):
+    settings.HEARTBEAT_INTERVAL_MAX = 4
+    controller = Controller()
+
+    assert set(windows(controller, [1.0] * 10, base=6.0)) == {6.0}
+
+
+def test_a_light_load_never_lengthens_it():
+    controller = Controller()
+
+    assert set(windows(controller, [0.0, 0.3, 0.8, 0.5] * 10)) == {1.0}
+
+
+def pool_share(robots, interval, *, capacity=140.0):
+    """A pool of 5 sync workers on 2 cores taking `capacity` heartbeats/s when saturated: the
+    share of a worker's time serving, as processor sharing makes it (steeper than the rate)."""
+    load = robots / interval / capacity  # of the CPUs
+    if load >= 1:
+        return 1.0
+    in_service = 2 * load / (1 - load * load)
+    return min(in_service / 5, 1.0)
+
+
+@pytest.mark.parametrize("robots", [150, 200, 500, 1000])
+def test_a_steady_load_settles_on_one_interval_in_whole_steps(robots):
+    controller = Controller()
+    told = []
+    for n in range(200):
+        share = pool_share(robots, max(controller.interval, 1.0))
+        controller.judge(Window(n * WINDOW, (n + 1) * WINDOW, share), base=1.0)
+        told.append(max(controller.interval, 1.0))
+
+    settled = told[30:]
+    assert len(set(settled)) == 1, sorted(set(told))
+    assert settled[0] / STEP_SECONDS == int(settled[0] / STEP_SECONDS)
+    # Settled where the workers are not saturated, the load under the 140/s they take.
+    assert pool_share(robots, settled[0]) <= HIGH_SHARE
+    assert robots / settled[0] < 140
+
+
+def test_it_follows_a_load_that_rises_then_falls():
+    controller = Controller()
+    told = []
+    for n, robots in enumerate([100] * 20 + [800] * 40 + [100] * 150):
+        share = pool_share(robots, max(controller.interval, 1.0))
+        controller.judge(Window(n * WINDOW, (n + 1) * WINDOW, share), base=1.0)
+        told.append(max(controller.interval, 1.0))
+
+    assert told[19] == 1.0
+    assert told[59] > 5.7  # 800 robots at 140/s need 5.7 s at least
+    assert told[-1] == 1.0
+    # Loaded, it never goes back under what the load needs once there; unloaded, never up.
+    enough = told.index(next(t for t in told if t > 5.7))
+    assert min(told[enough:60]) > 5.7
+    assert told[60:] == sorted(told[60:], reverse=True)
+
+
+def test_the_busy_share_is_the_time_spent_serving_over_a_window():
+    clock = iter([0.0, 0.5, 1.0, 1.2, 1.5, 2.5]).__next__
+    meter = BusyMeter(clock=clock, window=2.0)
+
+    meter.started(), meter.finished()  # 0.5 s serving
+    meter.started()  # two requests overlap from 1.0 to 2.5: 1.5 s serving, counted once
+    meter.started()
+    assert meter.last is None
+    meter.finished()
+    meter.finished()
+
+    assert meter.last == Window(0.0, 2.5, 2.0 / 2.5)
+
+
+def saturated():
+    """As if the process serving heartbeats had just spent a whole window serving."""
+    busy.last = Window(time.monotonic() - WINDOW, time.monotonic(), 1.0)
+
+
+def test_a_saturated_server_tells_robots_a_longer_interval(robot_http, robot, settings):
+    settings.HEARTBEAT_CAPACITY = 1000  # the ceiling far away: the busy share decides
+    saturated()
+
+    assert robot_http.heartbeat(1)["heartbeat_interval"] == 2.0
+
+
+def test_a_robot_that_obeys_a_learned_interval_is_not_flipped(robot_http, robot, settings):
+    settings.HEARTBEAT_CAPACITY = 1000
+    saturated()
+    told = robot_http.heartbeat(1)["heartbeat_interval"]
+    robot.refresh_from_db()
+    seen = robot.last_seen_at
+
+    assert told == 2.0
+    presence_sweep(now=seen + timedelta(seconds=3 * told - 0.01))  # past the site's 3 s
+    robot.refresh_from_db()
+    assert robot.presence == "online"
+    assert robot.unreachable_at - seen == timedelta(seconds=3 * told)
+
+
+def test_a_zero_ceiling_turns_the_learned_interval_off(robot_http, robot, settings):
+    settings.HEARTBEAT_CAPACITY = 0
+    saturated()
+
+    assert robot_http.heartbeat(1)["heartbeat_interval"] == 1.0
