@@ -192,11 +192,19 @@ class _Batch:
         return True
 
     def post(self) -> None:
-        """One plan per robot given tasks, then each task's history and deadline check."""
+        """One plan per robot given tasks, then each task's history and deadline check; the
+        robots are woken when the batch commits (plan_post)."""
         for robot_id, stops in self.stops.items():
             robot, held = self.locked[robot_id], self.routes[robot_id]
+            # Woken on commit: woken at once, each robot's heartbeat would hold a web worker
+            # waiting on its row until the batch's last plan is posted.
             plan_post(
-                robot=robot, start=self.start[robot_id], stops=stops, tasks=held.tasks, now=self.now
+                robot=robot,
+                start=self.start[robot_id],
+                stops=stops,
+                tasks=held.tasks,
+                now=self.now,
+                wake_at_once=False,
             )
         for task, robot in self.assigned:
             task_record(task, old=TaskStatus.DUE, at=self.now, cause=Cause.ALLOCATION, robot=robot)

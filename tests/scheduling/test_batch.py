@@ -28,3 +28,20 @@ def test_the_workers_message_allocates_its_task_with_the_rest_of_its_site(r1, si
 
     assert {task.robot_id for task in Task.objects.all()} == {r1.pk}
     assert len(pending_plans(r1)) == 1
+
+
+def test_a_batch_wakes_its_robots_only_when_it_commits(
+    r1, r2, site, monkeypatch, django_capture_on_commit_callbacks
+):
+    woken = []
+    monkeypatch.setattr("boards.push.group_send", lambda group, message: woken.append(group))
+    [request(site, receiver=f"Nurse {n}") for n in range(3)]
+
+    with django_capture_on_commit_callbacks(execute=False) as callbacks:
+        assert site_allocate_due(site_id=site.pk) == 3
+    assert woken == []  # a woken heartbeat would wait for the rest of the batch on its row
+
+    for callback in callbacks:
+        callback()
+    assert sorted(set(woken)) == sorted(f"robot-{r.code}" for r in (r1, r2) if pending_plans(r))
+    assert woken
