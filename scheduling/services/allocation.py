@@ -104,8 +104,9 @@ def site_allocate_due(*, site_id: int, now: datetime | None = None) -> int:
     plan with all its new tasks at the end. The robots are chosen on their routes as read,
     unlocked, and only then locked, each once, and their routes read again: a robot's heartbeat
     then waits for the batch's writes only, not for its choices too (bench/latency.py, a burst
-    of 100). If a chosen robot's route changed or it is no longer available, that is undone
-    and the batch is made again locking each robot as it is chosen. The Celery worker runs this
+    of 100). A chosen robot whose route changed meanwhile plans its new tasks on its route as
+    it is now; if one is no longer available, or its new tasks no longer fit, the batch is
+    undone and made again locking each robot as it is chosen. The Celery worker runs this
     for a task the request could not allocate itself; later messages of the same burst find
     nothing left.
     """
@@ -219,15 +220,28 @@ class _Batch:
         return True
 
     def lock_chosen(self) -> None:
-        """Lock the robots given tasks, in order, and check each route is still as it was read
-        and the robot still available (else _ReadAgain)."""
+        """Lock the robots given tasks, in order; a robot whose route changed since it was read
+        (it acked or progressed) plans its new tasks on its route as it is now. _ReadAgain if
+        a robot is no longer available or its new tasks no longer fit."""
         for robot_id in sorted(self.stops):
             robot = robot_lock_if_available(robot_id, self.site)
-            if robot is None or robot_route(robot=robot, now=self.now).signature != (
-                self.read[robot_id].signature
-            ):
+            if robot is None:
                 raise _ReadAgain(robot_id)
+            held = robot_route(robot=robot, now=self.now)
+            if held.signature != self.read[robot_id].signature:
+                self._replan(robot, held)
             self.locked[robot_id] = robot
+
+    def _replan(self, robot: Robot, held: HeldRoute) -> None:
+        read = self.read[robot.pk]
+        added = self.routes[robot.pk].route.tasks[len(read.route.tasks) :]
+        route = replace(held.route, tasks=(*held.route.tasks, *added))
+        plan = best_plan(route, router_for(self.site).travel_time)
+        if plan is None or not robot_can_finish(robot=robot, start=route.start, stops=plan.stops):
+            raise _ReadAgain(robot.pk)
+        new = {c: t for c, t in self.routes[robot.pk].tasks.items() if c not in read.tasks}
+        self.routes[robot.pk] = replace(held, route=route, tasks={**held.tasks, **new})
+        self.stops[robot.pk], self.start[robot.pk] = plan.stops, route.start
 
     def post(self) -> None:
         """One plan per robot given tasks, then each task's history and deadline check; the

@@ -67,3 +67,26 @@ def test_a_robot_paused_while_the_batch_chose_is_passed_over_and_nothing_is_lost
     assert len(pending_plans(r2)) == 1
     assert TaskTransition.objects.filter(cause="allocation").count() == 4  # none doubled
     assert chosen.count(r1.pk) == 2  # chosen unlocked, then again when the batch was made again
+
+
+def test_a_robot_whose_route_changed_meanwhile_plans_its_new_tasks_on_it(r1, site, monkeypatch):
+    held = request(site)
+    assert site_allocate_due(site_id=site.pk) == 1
+    new = [request(site, receiver="Dr Lee"), request(site, receiver="Dr Kim")]
+    lock_if_available = allocation.robot_lock_if_available
+    locked = []
+
+    def acked_meanwhile(robot_id, site):  # R1 acked its plan after the batch read its route
+        Task.objects.filter(pk=held.pk).update(status="acknowledged")
+        locked.append(robot_id)
+        return lock_if_available(robot_id, site)
+
+    monkeypatch.setattr(allocation, "robot_lock_if_available", acked_meanwhile)
+
+    assert site_allocate_due(site_id=site.pk) == 2
+
+    assert locked == [r1.pk]  # locked once: the batch was not made again
+    [plan] = pending_plans(r1)
+    planned = {stop["task"] for stop in plan.body["stops"]}
+    assert planned == {task.code for task in [held, *new]}
+    assert Task.objects.get(pk=held.pk).status == "acknowledged"
