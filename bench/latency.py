@@ -360,11 +360,11 @@ def _print_table(outcomes: list[Outcome]) -> None:
         f"\n{'':<20}{'push':>5}{'n':>6}{'mean':>9}{'p50':>9}{'p99':>9}"
         f"{'->posted':>10}{'->robot':>9}{'thesis':>8}"
     )
-    for o in outcomes:
+    for n, o in enumerate(outcomes):
         latencies = [s.latency * 1000 for s in o.samples]
         to_posted = [(s.posted - s.started) * 1000 for s in o.samples if s.posted]
         to_robot = [(s.received - s.posted) * 1000 for s in o.samples if s.posted]
-        label = o.row.label if not o.push else ""
+        label = o.row.label if n == 0 or outcomes[n - 1].row != o.row else ""
         print(
             f"{label:<20}{'yes' if o.push else 'no':>5}{len(latencies):>6}"
             f"{_ms(statistics.fmean(latencies)):>9}{_ms(_percentile(latencies, 50)):>9}"
