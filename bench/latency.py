@@ -2,6 +2,7 @@
 
     python bench/latency.py            # 20 runs per row, up to 100 robots and users (minutes)
     python bench/latency.py --quick    # small counts, 3 runs: what CI runs
+    python bench/latency.py --rows 100x100 --runs 5   # only the burst of 100 users
 
 The thesis (Table 8.1-8.3) measured ~75 ms from a user's web request to the robot receiving
 the command over a direct TCP connection, with 1 user and 1 device, 10/50/100 concurrent users,
@@ -110,8 +111,19 @@ def main(argv: list[str] | None = None) -> int:
         help="a PostgreSQL server to create the benchmark's database on (or sqlite:///)",
     )
     parser.add_argument("--web-workers", type=int, default=3, help="gunicorn sync workers")
+    parser.add_argument(
+        "--rows",
+        type=_row,
+        nargs="+",
+        metavar="USERSxROBOTS",
+        help="only these rows, e.g. 100x100 (the burst of 100 users) or 1x1",
+    )
+    parser.add_argument(
+        "--push", choices=["no", "yes", "both"], default="both", help="without, with or both"
+    )
     args = parser.parse_args(argv)
-    rows = QUICK_ROWS if args.quick else FULL_ROWS
+    rows = args.rows or (QUICK_ROWS if args.quick else FULL_ROWS)
+    pushes = {"no": (False,), "yes": (True,), "both": (False, True)}[args.push]
     runs = args.runs or (3 if args.quick else 20)
     os.environ.setdefault("SECRET_KEY", "bench-only")  # for the servers and manage.py too
     with temporary_database(args.database) as url:
@@ -121,10 +133,18 @@ def main(argv: list[str] | None = None) -> int:
             _print_header(stack, url, runs, argv)
             outcomes = []
             for row in rows:
-                for push in (False, True):
+                for push in pushes:
                     outcomes.append(_measure(stack, row, push, runs, users, robots))
     _print_table(outcomes)
     return 0 if all(o.samples and not o.lost for o in outcomes) else 1
+
+
+def _row(text: str) -> Row:
+    users, _, robots = text.partition("x")
+    try:
+        return Row(int(users), int(robots))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not USERSxROBOTS, e.g. 100x100") from None
 
 
 # --- Setting up ---------------------------------------------------------------------------------
@@ -340,11 +360,11 @@ def _print_table(outcomes: list[Outcome]) -> None:
         f"\n{'':<20}{'push':>5}{'n':>6}{'mean':>9}{'p50':>9}{'p99':>9}"
         f"{'->posted':>10}{'->robot':>9}{'thesis':>8}"
     )
-    for o in outcomes:
+    for n, o in enumerate(outcomes):
         latencies = [s.latency * 1000 for s in o.samples]
         to_posted = [(s.posted - s.started) * 1000 for s in o.samples if s.posted]
         to_robot = [(s.received - s.posted) * 1000 for s in o.samples if s.posted]
-        label = o.row.label if not o.push else ""
+        label = o.row.label if n == 0 or outcomes[n - 1].row != o.row else ""
         print(
             f"{label:<20}{'yes' if o.push else 'no':>5}{len(latencies):>6}"
             f"{_ms(statistics.fmean(latencies)):>9}{_ms(_percentile(latencies, 50)):>9}"

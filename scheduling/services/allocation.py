@@ -100,30 +100,54 @@ def site_allocate_due(*, site_id: int, now: datetime | None = None) -> int:
     assigned.
 
     A burst of requests is allocated in one batch: the robots' routes are read once, each task
-    is added to the route of the robot it goes to, each chosen robot is locked once and posted
-    one plan with all its new tasks at the end. The Celery worker runs this for a task the
-    request could not allocate itself; later messages of the same burst find nothing left.
+    is added to the route of the robot it goes to, and each robot given tasks is posted one
+    plan with all its new tasks at the end. The robots are chosen on their routes as read,
+    unlocked, and only then locked, each once, and their routes read again: a robot's heartbeat
+    then waits for the batch's writes only, not for its choices too (bench/latency.py, a burst
+    of 100). A chosen robot whose route changed meanwhile plans its new tasks on its route as
+    it is now; if one is no longer available, or its new tasks no longer fit, the batch is
+    undone and made again locking each robot as it is chosen. The Celery worker runs this
+    for a task the request could not allocate itself; later messages of the same burst find
+    nothing left.
     """
     now = now or timezone.now()
     with transaction.atomic():
         site = _allocation_lock(site_id)
-        due = Task.objects.filter(site_id=site_id, status=TaskStatus.DUE, robot__isnull=True)
-        due = due.annotate(rank=_PRIORITY_RANK).order_by("rank", "due_at", "requested_time", "pk")
-        tasks = list(due.prefetch_related("stops")[:DUE_BATCH])
+        tasks = _due_tasks(site_id)
         if not tasks:
             return 0
+        try:
+            with transaction.atomic():  # a savepoint: undone if a chosen robot changed meanwhile
+                batch = _Batch(site, now, lock_late=True)
+                assigned = sum(batch.add(task) for task in tasks)
+                batch.lock_chosen()
+                batch.post()
+                return assigned
+        except _ReadAgain:
+            pass
         batch = _Batch(site, now)
-        assigned = sum(batch.add(task) for task in tasks)
+        assigned = sum(batch.add(task) for task in _due_tasks(site_id))
         batch.post()
         return assigned
+
+
+def _due_tasks(site_id: int) -> list[Task]:
+    due = Task.objects.filter(site_id=site_id, status=TaskStatus.DUE, robot__isnull=True)
+    due = due.annotate(rank=_PRIORITY_RANK).order_by("rank", "due_at", "requested_time", "pk")
+    return list(due.prefetch_related("stops")[:DUE_BATCH])
+
+
+class _ReadAgain(Exception):
+    """A robot chosen on its unlocked route changed or became unavailable before it was locked."""
 
 
 class _Batch:
     """Tasks allocated together: each robot's route grows in memory; plans are posted last."""
 
-    def __init__(self, site: Site, now: datetime):
-        self.site, self.now = site, now
+    def __init__(self, site: Site, now: datetime, *, lock_late: bool = False):
+        self.site, self.now, self.lock_late = site, now, lock_late
         self.routes = robot_routes(robots=robots_for_allocation(site=site), now=now)
+        self.read = dict(self.routes)  # as read, before this batch's tasks join them
         self.locked: dict[int, Robot] = {}
         self.start: dict[int, str] = {}
         self.stops: dict[int, tuple[Stop, ...]] = {}  # robots given tasks: their new route
@@ -160,6 +184,10 @@ class _Batch:
         """Lock a robot the first time it is chosen, and take its route as it is now."""
         if robot_id in self.locked:
             return True
+        if self.lock_late:  # chosen on its route as read; locked by lock_chosen
+            self.locked[robot_id] = self.routes[robot_id].robot
+            self.start[robot_id] = self.routes[robot_id].route.start
+            return True
         robot = robot_lock_if_available(robot_id, self.site)
         if robot is None:
             del self.routes[robot_id]
@@ -191,12 +219,44 @@ class _Batch:
         self.assigned.append((task, robot))
         return True
 
+    def lock_chosen(self) -> None:
+        """Lock the robots given tasks, in order; a robot whose route changed since it was read
+        (it acked or progressed) plans its new tasks on its route as it is now. _ReadAgain if
+        a robot is no longer available or its new tasks no longer fit."""
+        for robot_id in sorted(self.stops):
+            robot = robot_lock_if_available(robot_id, self.site)
+            if robot is None:
+                raise _ReadAgain(robot_id)
+            held = robot_route(robot=robot, now=self.now)
+            if held.signature != self.read[robot_id].signature:
+                self._replan(robot, held)
+            self.locked[robot_id] = robot
+
+    def _replan(self, robot: Robot, held: HeldRoute) -> None:
+        read = self.read[robot.pk]
+        added = self.routes[robot.pk].route.tasks[len(read.route.tasks) :]
+        route = replace(held.route, tasks=(*held.route.tasks, *added))
+        plan = best_plan(route, router_for(self.site).travel_time)
+        if plan is None or not robot_can_finish(robot=robot, start=route.start, stops=plan.stops):
+            raise _ReadAgain(robot.pk)
+        new = {c: t for c, t in self.routes[robot.pk].tasks.items() if c not in read.tasks}
+        self.routes[robot.pk] = replace(held, route=route, tasks={**held.tasks, **new})
+        self.stops[robot.pk], self.start[robot.pk] = plan.stops, route.start
+
     def post(self) -> None:
-        """One plan per robot given tasks, then each task's history and deadline check."""
+        """One plan per robot given tasks, then each task's history and deadline check; the
+        robots are woken when the batch commits (plan_post)."""
         for robot_id, stops in self.stops.items():
             robot, held = self.locked[robot_id], self.routes[robot_id]
+            # Woken on commit: woken at once, each robot's heartbeat would hold a web worker
+            # waiting on its row until the batch's last plan is posted.
             plan_post(
-                robot=robot, start=self.start[robot_id], stops=stops, tasks=held.tasks, now=self.now
+                robot=robot,
+                start=self.start[robot_id],
+                stops=stops,
+                tasks=held.tasks,
+                now=self.now,
+                wake_at_once=False,
             )
         for task, robot in self.assigned:
             task_record(task, old=TaskStatus.DUE, at=self.now, cause=Cause.ALLOCATION, robot=robot)

@@ -28,15 +28,25 @@ PLAN_KEY = "plan"
 
 
 def plan_post(
-    *, robot: Robot, start: str, stops: Sequence[Stop], tasks: dict[str, Task], now: datetime
+    *,
+    robot: Robot,
+    start: str,
+    stops: Sequence[Stop],
+    tasks: dict[str, Task],
+    now: datetime,
+    wake_at_once: bool = True,
 ) -> RobotPlan:
     """Post `stops` as the robot's plan, superseding any unacked plan; store the tasks' ETAs
     (by the robot's learned pace and dwell; the lease queues join them as it makes progress,
-    scheduling.services.etas)."""
+    scheduling.services.etas).
+
+    The robot is woken at once (its heartbeat waits for the commit), or with `wake_at_once`
+    false once the transaction commits: for a batch that posts many plans, whose woken
+    heartbeats would each hold a web worker while they wait for the rest of the batch."""
     router = router_for(robot.site)
     wire = _wire_stops(router, start, stops)
     on_route = {code: _task_wire(tasks[code]) for code in dict.fromkeys(s.task for s in stops)}
-    plan = _post(robot, wire, on_route, now)  # first: the robot is woken, and travels meanwhile
+    plan = _post(robot, wire, on_route, now, wake_at_once)  # first: the robot travels meanwhile
     pace, dwell = robot_pace(robot)
     etas_store(tasks, stop_times(router, start, stops, pace=pace, dwell=dwell), now)
     return plan
@@ -123,7 +133,9 @@ def plan_withdraw_pending(*, robot: Robot, reason: str, now: datetime) -> int:
     return board_withdraw(messages=pending, reason=reason, now=now)
 
 
-def _post(robot: Robot, stops: list[dict], tasks: dict[str, dict], now: datetime) -> RobotPlan:
+def _post(
+    robot: Robot, stops: list[dict], tasks: dict[str, dict], now: datetime, wake_at_once=True
+) -> RobotPlan:
     current = _current_plan(robot)
     version = max(current.version if current else 0, robot.plan_version) + 1
     body = protocol.plan_body(version=version, stops=stops, tasks=tasks)
@@ -133,7 +145,7 @@ def _post(robot: Robot, stops: list[dict], tasks: dict[str, dict], now: datetime
         key=PLAN_KEY,
         body=body,
         supersede=_may_be_pending(current),
-        robot_locked=True,
+        robot_locked=wake_at_once,  # its row is locked: woken at once, or else on commit
     )
     if current is None:
         return RobotPlan.objects.create(

@@ -1,7 +1,7 @@
 """A burst of due tasks is allocated in one batch under the site's lock (real PostgreSQL)."""
 
 from scheduling.models import Task, TaskTransition
-from scheduling.services import site_allocate_due, task_allocate_with_its_site
+from scheduling.services import allocation, site_allocate_due, task_allocate_with_its_site
 from tests.scheduling.conftest import pending_plans, request
 
 
@@ -28,3 +28,65 @@ def test_the_workers_message_allocates_its_task_with_the_rest_of_its_site(r1, si
 
     assert {task.robot_id for task in Task.objects.all()} == {r1.pk}
     assert len(pending_plans(r1)) == 1
+
+
+def test_a_batch_wakes_its_robots_only_when_it_commits(
+    r1, r2, site, monkeypatch, django_capture_on_commit_callbacks
+):
+    woken = []
+    monkeypatch.setattr("boards.push.group_send", lambda group, message: woken.append(group))
+    [request(site, receiver=f"Nurse {n}") for n in range(3)]
+
+    with django_capture_on_commit_callbacks(execute=False) as callbacks:
+        assert site_allocate_due(site_id=site.pk) == 3
+    assert woken == []  # a woken heartbeat would wait for the rest of the batch on its row
+
+    for callback in callbacks:
+        callback()
+    assert sorted(set(woken)) == sorted(f"robot-{r.code}" for r in (r1, r2) if pending_plans(r))
+    assert woken
+
+
+def test_a_robot_paused_while_the_batch_chose_is_passed_over_and_nothing_is_lost(
+    r1, r2, site, monkeypatch
+):
+    tasks = [request(site, receiver=f"Nurse {n}") for n in range(4)]
+    lock_if_available = allocation.robot_lock_if_available
+    chosen = []
+
+    def paused_meanwhile(robot_id, site):  # R1 was paused by an operator after it was read
+        chosen.append(robot_id)
+        return None if robot_id == r1.pk else lock_if_available(robot_id, site)
+
+    monkeypatch.setattr(allocation, "robot_lock_if_available", paused_meanwhile)
+
+    assert site_allocate_due(site_id=site.pk) == 4
+
+    assert {t.robot_id for t in Task.objects.filter(pk__in=[t.pk for t in tasks])} == {r2.pk}
+    assert pending_plans(r1) == []
+    assert len(pending_plans(r2)) == 1
+    assert TaskTransition.objects.filter(cause="allocation").count() == 4  # none doubled
+    assert chosen.count(r1.pk) == 2  # chosen unlocked, then again when the batch was made again
+
+
+def test_a_robot_whose_route_changed_meanwhile_plans_its_new_tasks_on_it(r1, site, monkeypatch):
+    held = request(site)
+    assert site_allocate_due(site_id=site.pk) == 1
+    new = [request(site, receiver="Dr Lee"), request(site, receiver="Dr Kim")]
+    lock_if_available = allocation.robot_lock_if_available
+    locked = []
+
+    def acked_meanwhile(robot_id, site):  # R1 acked its plan after the batch read its route
+        Task.objects.filter(pk=held.pk).update(status="acknowledged")
+        locked.append(robot_id)
+        return lock_if_available(robot_id, site)
+
+    monkeypatch.setattr(allocation, "robot_lock_if_available", acked_meanwhile)
+
+    assert site_allocate_due(site_id=site.pk) == 2
+
+    assert locked == [r1.pk]  # locked once: the batch was not made again
+    [plan] = pending_plans(r1)
+    planned = {stop["task"] for stop in plan.body["stops"]}
+    assert planned == {task.code for task in [held, *new]}
+    assert Task.objects.get(pk=held.pk).status == "acknowledged"
