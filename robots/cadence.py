@@ -69,7 +69,11 @@ class Controller:
             wanted = max(current * window.share / AIM_SHARE, current + STEP_SECONDS)
             new = min(_stepped(wanted), max(settings.HEARTBEAT_INTERVAL_MAX, base))
         elif self.interval > base and window.share * current / shorter < LOW_SHARE:
-            new = shorter
+            # Towards the interval that would bring the share to AIM_SHARE, as lengthening
+            # does, not one step per judgement: a burst of requests saturates the workers for
+            # a moment, and robots without the push channel would otherwise wait minutes of
+            # long intervals for their plans once it is over.
+            new = min(max(_stepped(current * window.share / AIM_SHARE), base), shorter)
         else:
             return
         if max(new, base) != current:

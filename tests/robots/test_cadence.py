@@ -134,16 +134,21 @@ def test_a_window_is_judged_once():
     controller.judge(window, base=1.0)
     controller.judge(window, base=1.0)
 
-    assert controller.interval == 2.5
+    assert controller.interval == 1.0
 
 
-def test_it_shortens_one_step_at_a_time_when_the_load_falls_and_never_below_the_site():
+def test_it_shortens_towards_the_aim_when_the_load_falls_and_never_below_the_site():
     controller = Controller(interval=3.0)
 
-    told = windows(controller, [0.05] * 12)
-
-    assert told == [2.5, 2.5, 2.5, 2.0, 2.0, 2.0, 1.5, 1.5, 1.0, 1.0, 1.0, 1.0]
+    assert windows(controller, [0.05] * 4) == [1.0] * 4
     assert controller.interval == 1.0
+
+
+def test_after_a_burst_it_comes_back_in_one_judgement_not_step_by_step():
+    controller = Controller(interval=10.0)
+
+    # 20 % busy at 10 s: 10 x 0.2 / 0.6 = 3.3 s, told in whole steps: 3.5 s.
+    assert windows(controller, [0.2]) == [3.5]
 
 
 def test_it_holds_between_the_thresholds():
