@@ -144,6 +144,16 @@ def file_edge_ends(raw) -> tuple[str, str, float | None, bool]:
     return raw["from"], raw["to"], raw.get("length"), bool(raw.get("oneway", False))
 
 
+def edge_index(site_map: SiteMap) -> dict[tuple[str, str], MapEdge]:
+    """Each edge by its (from, to) waypoint codes, a two-way edge under both directions."""
+    index = {}
+    for edge in site_map.edges:
+        index[(edge.source, edge.target)] = edge
+        if not edge.oneway:
+            index[(edge.target, edge.source)] = edge
+    return index
+
+
 def straight_line(a: MapWaypoint, b: MapWaypoint) -> float:
     return math.dist((a.x, a.y), (b.x, b.y))
 

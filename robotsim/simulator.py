@@ -41,7 +41,7 @@ from collections.abc import Callable, Generator
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 
-from robots.router import MapEdge, Router, SiteMap
+from robots.router import Router, SiteMap, edge_index
 from robotsim.client import RefusedError, RobotClient, badge_check, pin_check
 
 logger = logging.getLogger("robotsim")
@@ -218,7 +218,7 @@ class SimRobot:
         self.log: list[dict] = []  # every event and request, as sent
         self.stats = RobotStats()
         self.urgent = False  # something new to tell: heartbeat soon
-        self._edges = _edge_index(site_map)
+        self._edges = edge_index(site_map)
         self._grants: dict[str, dict] = {}  # resource -> newest grant received
         self._changes = 0  # plans and actions received: waits re-check their reason
         self._motion: _Motion | None = None
@@ -358,7 +358,7 @@ class SimRobot:
         if loaded is None or self.waypoint not in loaded[0].waypoints:
             return
         self.map, self.router = loaded
-        self._edges = _edge_index(self.map)
+        self._edges = edge_index(self.map)
         self.map_version = wanted
         logger.info("%s: now on map version %d", self.code, wanted)
 
@@ -655,15 +655,6 @@ def _key(stop: dict) -> tuple[str, int] | None:
 
 def _describe(stops: list[dict]) -> str:
     return ", ".join(f"{s['action']} {s.get('task', '')} {s['waypoint']}".strip() for s in stops)
-
-
-def _edge_index(site_map: SiteMap) -> dict[tuple[str, str], MapEdge]:
-    index = {}
-    for edge in site_map.edges:
-        index[(edge.source, edge.target)] = edge
-        if not edge.oneway:
-            index[(edge.target, edge.source)] = edge
-    return index
 
 
 def _expired(grant: dict) -> bool:

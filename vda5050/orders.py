@@ -14,7 +14,7 @@ granted. That is how VDA 5050 lets master control hold a vehicle before a shared
 
 from dataclasses import dataclass, field
 
-from robots.router import MapEdge, Router, SiteMap
+from robots.router import Router, SiteMap, edge_index
 
 PICK, DROP = "pick", "drop"
 ACTION_OF_STOP = {"pickup": PICK, "dropoff": DROP}
@@ -177,15 +177,6 @@ def _crossings(site_map: SiteMap, edges: list[OrderEdge]) -> list[Crossing]:
         if site_map.resources[crossing.resource].is_elevator:
             crossing.to_floor = site_map.waypoints[nodes_by_seq[crossing.exit_seq]].floor
     return crossings
-
-
-def edge_index(site_map: SiteMap) -> dict[tuple[str, str], MapEdge]:
-    index = {}
-    for edge in site_map.edges:
-        index[(edge.source, edge.target)] = edge
-        if not edge.oneway:
-            index[(edge.target, edge.source)] = edge
-    return index
 
 
 def elevator_between(site_map: SiteMap, a: str, b: str) -> str:
