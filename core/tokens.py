@@ -9,6 +9,12 @@ def token_hash(token: str) -> str:
     return hashlib.sha256(token.encode()).hexdigest()
 
 
+def secret_digest(secret: str, *, salt: str, iterations: int) -> str:
+    """PBKDF2-SHA256 of a short secret a person types or shows (a PIN, a badge), hex; guessable
+    secrets, so salted and slow, unlike tokens. Robots check it offline with the same inputs."""
+    return hashlib.pbkdf2_hmac("sha256", secret.encode(), bytes.fromhex(salt), iterations).hex()
+
+
 def token_new() -> tuple[str, str]:
     """A fresh token and its hash; show the token once and store the hash."""
     token = secrets.token_urlsafe(32)

@@ -7,10 +7,11 @@ count of that user's own (as a delivery's PIN: scheduling/pins.py); the robot ha
 reads the same way and compares. The badge id itself is never stored nor sent.
 """
 
-import hashlib
 import hmac
 import secrets
 from dataclasses import dataclass
+
+from core.tokens import secret_digest
 
 ALGORITHM = "pbkdf2_sha256"
 # Fewer than a PIN's: a robot checks a read badge against each user of the unit in turn, and
@@ -37,8 +38,8 @@ class BadgeHash:
 
 def badge_hash(badge: str, *, salt: str | None = None, iterations: int = ITERATIONS) -> BadgeHash:
     salt = salt or secrets.token_hex(16)
-    digest = hashlib.pbkdf2_hmac("sha256", badge.encode(), bytes.fromhex(salt), iterations)
-    return BadgeHash(salt=salt, iterations=iterations, hash=digest.hex())
+    digest = secret_digest(badge, salt=salt, iterations=iterations)
+    return BadgeHash(salt=salt, iterations=iterations, hash=digest)
 
 
 def badge_matches(badge: str, hashed: BadgeHash) -> bool:

@@ -6,10 +6,11 @@ the robot compares the hash of what is typed (docs/robot-protocol.md, "Secure de
 A robot, or anyone reading its board, learns nothing that opens another delivery.
 """
 
-import hashlib
 import hmac
 import secrets
 from dataclasses import dataclass
+
+from core.tokens import secret_digest
 
 ALGORITHM = "pbkdf2_sha256"
 ITERATIONS = 120_000  # tens of milliseconds on a robot's CPU per attempt; attempts are few
@@ -38,8 +39,8 @@ def pin_new() -> str:
 
 def pin_hash(pin: str, *, salt: str | None = None, iterations: int = ITERATIONS) -> PinHash:
     salt = salt or secrets.token_hex(16)
-    digest = hashlib.pbkdf2_hmac("sha256", pin.encode(), bytes.fromhex(salt), iterations)
-    return PinHash(salt=salt, iterations=iterations, hash=digest.hex())
+    digest = secret_digest(pin, salt=salt, iterations=iterations)
+    return PinHash(salt=salt, iterations=iterations, hash=digest)
 
 
 def pin_matches(pin: str, hashed: PinHash) -> bool:
