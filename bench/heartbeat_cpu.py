@@ -10,7 +10,9 @@ code path: a robot at its dock heartbeats (no events, acks or requests) through 
 client (middleware, DRF, authentication with the row lock, the board service, the hooks,
 the response) against a fresh database, and the process's CPU time (not wall time, so waiting
 on the database and other processes' load count for little) is divided by the heartbeats. What
-it leaves out is the HTTP server (gunicorn) and the database server's own work.
+it leaves out is the HTTP server (gunicorn). The database server's own work is printed apart:
+the CPU time of the PostgreSQL backend serving this process (read from /proc, so only when the
+server runs on this machine), divided by the heartbeats.
 """
 
 from __future__ import annotations
@@ -48,12 +50,18 @@ def main() -> None:
     options = parser.parse_args()
     rounds, per_round = (2, 100) if options.quick else (5, 1000)
     with temporary_database(options.database) as url:
-        samples, wal = measure(url, rounds=rounds, per_round=per_round)
+        samples, wal, database = measure(url, rounds=rounds, per_round=per_round)
     today = datetime.datetime.now(datetime.UTC).date()
     print(f"heartbeat CPU benchmark, {today} (UTC), Python {platform.python_version()}")
     print(f"{rounds} rounds of {per_round} heartbeats (after {WARMUP} to warm up)")
     print("CPU ms per heartbeat: " + " ".join(f"{sample:.3f}" for sample in samples))
     print(f"median {statistics.median(samples):.3f} ms")
+    if database:
+        print(
+            "database server CPU ms per heartbeat: "
+            + " ".join(f"{sample:.3f}" for sample in database)
+            + f" (median {statistics.median(database):.3f})"
+        )
     if wal:
         print(
             f"WAL bytes per heartbeat: median {statistics.median(wal):.0f} (the server's whole "
@@ -61,7 +69,11 @@ def main() -> None:
         )
 
 
-def measure(database_url: str, *, rounds: int, per_round: int) -> list[float]:
+def measure(
+    database_url: str, *, rounds: int, per_round: int
+) -> tuple[list[float], list[float], list[float]]:
+    """Per round: this process's CPU ms per heartbeat, WAL bytes per heartbeat and the
+    database server's CPU ms per heartbeat (the last two empty where they cannot be read)."""
     os.environ.update(
         DATABASE_URL=database_url,
         DJANGO_SETTINGS_MODULE="hospital_delivery.settings",
@@ -82,15 +94,43 @@ def measure(database_url: str, *, rounds: int, per_round: int) -> list[float]:
     token = robot_token_issue(robot=Robot.objects.get(code="R1"))
     beat = _Heartbeats(Client(), token)
     beat.send(WARMUP)
-    samples, wal = [], []
+    samples, wal, database = [], [], []
+    backend = _backend_cpu_reader()
     for _ in range(rounds):
         wal_before = _wal_position()
+        backend_before = backend() if backend else None
         started = time.process_time()
         beat.send(per_round)
         samples.append((time.process_time() - started) / per_round * 1000)
+        if backend_before is not None:
+            database.append((backend() - backend_before) / per_round * 1000)
         if wal_before is not None:
             wal.append((_wal_position() - wal_before) / per_round)
-    return samples, wal
+    return samples, wal, database
+
+
+def _backend_cpu_reader():
+    """A function returning the CPU seconds used so far by the PostgreSQL backend serving this
+    process's connection; None where it cannot be read (SQLite, a server on another machine,
+    a connection not kept between heartbeats)."""
+    from django.conf import settings
+    from django.db import connection
+
+    if connection.vendor != "postgresql" or not settings.DATABASES["default"]["CONN_MAX_AGE"]:
+        return None
+    with connection.cursor() as cursor:
+        cursor.execute("SELECT pg_backend_pid()")
+        stat = Path(f"/proc/{cursor.fetchone()[0]}/stat")
+    if not stat.exists():
+        return None
+    ticks = os.sysconf("SC_CLK_TCK")
+
+    def read() -> float:
+        # Fields 14 and 15 (utime, stime), counted after the parenthesised command name.
+        fields = stat.read_text().rpartition(")")[2].split()
+        return (int(fields[11]) + int(fields[12])) / ticks
+
+    return read
 
 
 def _wal_position() -> int | None:

@@ -11,14 +11,19 @@ stand-ins were; its rows become model instances the way Django's own iterable ma
 written with the ORM, where the models define it, and a wrong stand-in fails at the first call,
 not silently.
 
-Every execution goes through the connection's cursor: execute wrappers (core/commits.py),
-query logging and the test suite's query counts see them as any other query.
+On PostgreSQL the statements are also prepared, once per connection: the server parses and
+plans each once and then only binds the values (settings.DATABASE_PREPARED_STATEMENTS; Django's
+own queries bind on the client and are parsed and planned every time). Every execution goes
+through Django's cursor wrapper all the same: execute wrappers (core/commits.py), query logging
+and the test suite's query counts see them as any other query.
 """
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import cache
 from itertools import count
 
+from django.conf import settings
 from django.db import DatabaseError, connection
 from django.db.models import Model, QuerySet, signals
 from django.db.models.query import get_related_populators
@@ -76,7 +81,7 @@ class Statement:
 
     def all(self, **values) -> list[Model]:
         compiled = self._compiled.get(connection.vendor) or self._compile()
-        with connection.cursor() as cursor:
+        with _cursor() as cursor:
             cursor.execute(compiled.sql, compiled.bind(values))
             rows = cursor.fetchall()
         return compiled.instances(rows)
@@ -144,7 +149,7 @@ def row_update(instance: Model, fields: Sequence[str]) -> None:
         return
     prepared = zip(concrete, values, strict=True)
     params = [field.get_db_prep_save(value, connection) for field, value in prepared]
-    with connection.cursor() as cursor:
+    with _cursor() as cursor:
         cursor.execute(sql, [*params, instance.pk])
         if cursor.rowcount == 0:  # as save() says it
             raise DatabaseError("Save with update_fields did not affect any rows.")
@@ -159,3 +164,40 @@ def _update_compile(model: type[Model], fields: Sequence[str]) -> tuple[str, lis
     sql = f"UPDATE {quote(meta.db_table)} SET {assignments} WHERE {quote(meta.pk.column)} = %s"
     _updates[(model, tuple(fields), connection.vendor)] = (sql, concrete)
     return sql, concrete
+
+
+def _cursor():
+    """The connection's cursor, or on PostgreSQL one that prepares every statement it runs.
+
+    Not while queries are logged (DEBUG, the tests' query captures): the log shows a query's
+    SQL with its values as the client-binding cursor builds it, which a server-binding cursor
+    does not keep; the statements and their results are the same either way."""
+    prepared = settings.DATABASE_PREPARED_STATEMENTS and connection.vendor == "postgresql"
+    if not prepared or connection.queries_logged:
+        return connection.cursor()
+    connection.validate_thread_sharing()
+    connection.close_if_health_check_failed()
+    connection.ensure_connection()
+    raw = connection.connection
+    if raw.prepare_threshold is None:  # Django's default: psycopg prepares nothing, even asked
+        # Only cursors that ask prepare: Django's client-binding cursors never do.
+        raw.prepare_threshold = _PREPARE_ONLY_WHEN_ASKED
+    return connection.make_cursor(_preparing_cursor_class()(raw))
+
+
+_PREPARE_ONLY_WHEN_ASKED = 2**31 - 1  # executions before psycopg would prepare by itself
+
+
+@cache
+def _preparing_cursor_class():
+    # Imported on first use: the module imports psycopg, which SQLite-only runs need not have.
+    from django.db.backends.postgresql.base import ServerBindingCursor
+
+    class PreparingCursor(ServerBindingCursor):
+        """Binds values on the server and prepares the statement (psycopg keeps it per
+        connection, keyed by the SQL and the values' types)."""
+
+        def execute(self, query, params=None, *, prepare=None, binary=None):
+            return super().execute(query, params, prepare=True, binary=binary)
+
+    return PreparingCursor

@@ -115,3 +115,36 @@ def test_no_index_covers_what_every_heartbeat_rewrites():
 
     assert indexed, "introspection found no index at all"
     assert not indexed & rewritten
+
+
+def _prepared_statements() -> list[str]:
+    with connection.cursor() as cursor:
+        cursor.execute("SELECT statement FROM pg_prepared_statements")
+        return [row[0] for row in cursor.fetchall()]
+
+
+@pytest.mark.skipif(connection.vendor != "postgresql", reason="PostgreSQL prepares statements")
+def test_on_postgresql_the_hot_statements_are_prepared_once_per_connection(robot):
+    board_post(robot=robot, type="action", body={"action": "pause"})
+    other = factories.robot_create(robot.site, "R2")
+    before = _prepared_statements()
+
+    mine, others = board_pending(robot=robot), board_pending(robot=other)
+    again = board_pending(robot=robot)
+
+    new = [sql for sql in _prepared_statements() if sql not in before]
+    assert len(new) == 1 and "boards_boardmessage" in new[0] and "$1" in new[0]
+    assert [m.body for m in mine] == [m.body for m in again] == [{"action": "pause"}]
+    assert others == []
+
+
+@pytest.mark.skipif(connection.vendor != "postgresql", reason="PostgreSQL prepares statements")
+def test_prepared_statements_can_be_turned_off_for_a_connection_pooler(robot, settings):
+    settings.DATABASE_PREPARED_STATEMENTS = False
+    board_post(robot=robot, type="action", body={"action": "pause"})
+    before = _prepared_statements()
+
+    assert [m.body for m in board_pending(robot=robot)] == [{"action": "pause"}]
+    assert [m.body for m in board_pending(robot=robot)] == [{"action": "pause"}]
+
+    assert _prepared_statements() == before
