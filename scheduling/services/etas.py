@@ -5,7 +5,9 @@ reports progress (an `arrived`, `loaded`, `unloaded` or `task_completed` event),
 robot is now, through the stops before each task's, counting:
 
 * the travel by the map, times the robot's own pace (Robot.pace_travel: what its travel took
-  over what the map said, learned from its events);
+  over what the map said, learned from its events on legs it drove from one stop to the next
+  of tasks it already held: the time between its last stop and a task it was given later is
+  idling and going home, not travel);
 * the time it spends at each stop (Robot.pace_dwell, learned likewise; until then the site's
   stop_dwell_seconds);
 * on its next leg, the wait for each elevator, door or corridor it does not hold yet, by the
@@ -227,7 +229,7 @@ def _travel_learn(robot: Robot, event: RobotEvent) -> list[str]:
         .first()
     )
     seconds = _between(before, event)
-    if seconds is None:
+    if seconds is None or _received_since(robot, event.task, before):
         return []
     places = _places(robot, [(before.task, before.stop), (event.task, event.stop)])
     if len(places) != 2 or places[0] == places[1]:
@@ -238,6 +240,18 @@ def _travel_learn(robot: Robot, event: RobotEvent) -> list[str]:
     ratio = min(max(seconds / predicted, PACE_LIMITS[0]), PACE_LIMITS[1])
     robot.pace_travel = _averaged(robot.pace_travel, ratio)
     return ["pace_travel"]
+
+
+def _received_since(robot: Robot, code: str, done: RobotEvent) -> bool:
+    """Whether the robot was given the task after it reported `done`: it then did not drive
+    from that stop to this one all along (it went back to its dock, or waited there), and the
+    time between the two events is not travel. Both times by the server's clock."""
+    assigned_at = (
+        Task.objects.filter(pk=task_pk(code), robot=robot)
+        .values_list("assigned_at", flat=True)
+        .first()
+    )
+    return assigned_at is None or assigned_at > done.received_at
 
 
 def _dwell_learn(robot: Robot, event: RobotEvent) -> list[str]:

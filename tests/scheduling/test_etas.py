@@ -107,6 +107,32 @@ def test_a_robot_twenty_times_faster_than_the_map_is_predicted_so(r1, to_lab):
     assert to_lab.eta == T0 + seconds(8 + 2.0)  # at the lab: only its learned 2 s there left
 
 
+def test_time_between_tasks_is_not_learned_as_travel(r1, site, to_lab):
+    code = to_lab.code
+    beat(r1, now=T0 + seconds(21), at="1F-PHARM", events=[event("arrived", code, 0, at=T0)])
+    beat(r1, now=T0 + seconds(31), at="1F-PHARM", events=[event("loaded", code, 0, at=T0)])
+    at_lab = T0 + seconds(PHARMACY_TO_LAB)  # by the map: pace 1
+    beat(r1, now=T0 + seconds(120), at="2F-LAB", events=[event("arrived", code, 1, at=at_lab)])
+    beat(r1, now=T0 + seconds(130), at="2F-LAB", events=[event("unloaded", code, 1, at=at_lab)])
+    r1.refresh_from_db()
+    assert r1.pace_travel == pytest.approx(1.0)
+    # Ten minutes idle, then a task from the pharmacy: the robot drives there from the lab.
+    given = T0 + seconds(730)
+    second = request(site, dropoffs=("3F-WARD",))
+    task_allocate(task_id=second.pk, now=given)
+    there = at_lab + seconds(600 + PHARMACY_TO_LAB)  # by the robot's clock, as fast as before
+
+    beat(
+        r1,
+        now=given + seconds(90),
+        at="1F-PHARM",
+        events=[event("arrived", second.code, 0, at=there)],
+    )
+
+    r1.refresh_from_db()
+    assert r1.pace_travel == pytest.approx(1.0)  # not ten idle minutes over 82.5 s of travel
+
+
 def test_the_eta_counts_the_lease_queue_on_the_robots_next_leg(r1, r2, site, to_lab):
     elevator = Resource.objects.get(site=site, code="ELEV")
     factories.lease_acquire(robot=r2, resource=elevator, request_id="q-r2", to_floor="3F", now=T0)
