@@ -84,6 +84,7 @@ class Result:
     priorities: list[str]  # per delivered task, as to_dropoff
     on_time: list[bool]  # per delivered task: dropped off by its due-by time
     eta_error: list[float]  # seconds, ETA when assigned minus actual drop-off, per delivered task
+    eta_error_loaded: list[float]  # the same with the drop-off ETA as it stood when picked up
     charging_trips: int  # plans sending a robot to charge
     lowest_battery: float  # the lowest battery any robot reported
 
@@ -181,6 +182,15 @@ def _print_table(results: list[Result]) -> None:
         ("ETA error |p50|, assigned", lambda r: _minutes(_percentile(_abs(r.eta_error), 0.5))),
         ("ETA error |p90|, assigned", lambda r: _minutes(_percentile(_abs(r.eta_error), 0.9))),
         ("ETA error mean, assigned", lambda r: _minutes(_mean(r.eta_error))),
+        (
+            "ETA error |p50|, picked up",
+            lambda r: _minutes(_percentile(_abs(r.eta_error_loaded), 0.5)),
+        ),
+        (
+            "ETA error |p90|, picked up",
+            lambda r: _minutes(_percentile(_abs(r.eta_error_loaded), 0.9)),
+        ),
+        ("ETA error mean, picked up", lambda r: _minutes(_mean(r.eta_error_loaded))),
         ("robot travel, distance", lambda r: f"{r.distance / 1000:.1f} km"),
         ("robot travel, driving", lambda r: f"{r.driving / 3600:.1f} h"),
         ("elevator rides", lambda r: f"{r.rides} ({r.riding / 3600:.1f} h)"),
@@ -208,8 +218,9 @@ def _print_table(results: list[Result]) -> None:
         "delivery_time: added travel plus the waiting it causes (the default); single: a robot\n"
         "takes a task only when it holds none (single-task allocation).\n"
         "On time: dropped off by its due-by time (the site's default for its priority).\n"
-        "ETA error: the drop-off ETA a task was given when assigned minus its actual drop-off\n"
-        "(|p50|, |p90|: of the absolute error; mean: negative = later than predicted)."
+        "ETA error: the drop-off ETA a task was given when assigned (and, picked up: its drop-off\n"
+        "ETA as recomputed when it was loaded) minus its actual drop-off (|p50|, |p90|: of the\n"
+        "absolute error; mean: negative = later than predicted)."
     )
 
 
@@ -365,6 +376,7 @@ class _Day:
         self.codes: list[str] = []
         self.heartbeats = 0
         self.first_eta: dict[int, datetime.datetime] = {}  # task pk -> ETA when assigned
+        self.loaded_eta: dict[int, datetime.datetime] = {}  # task pk -> drop-off ETA when loaded
 
     def run(self) -> None:
         from resources.leases import lease_sweep
@@ -387,6 +399,7 @@ class _Day:
                     self.heartbeats += loop.client.seq - before
                 if due_sweep():
                     self._note_etas()
+                self._note_loaded_etas()
                 if second % HOUSEKEEPING_EVERY == 0:
                     presence_sweep()
                     lease_sweep()
@@ -410,6 +423,15 @@ class _Day:
         estimated = Task.objects.filter(eta__isnull=False).exclude(pk__in=list(self.first_eta))
         for pk, eta in estimated.values_list("pk", "eta"):
             self.first_eta[pk] = eta
+
+    def _note_loaded_etas(self) -> None:
+        """The drop-off ETA of each task as it stood when it was picked up (recomputed then)."""
+        from scheduling.models import Task
+
+        loaded = Task.objects.filter(picked_up_at__isnull=False, eta__isnull=False)
+        loaded = loaded.exclude(pk__in=list(self.loaded_eta))
+        for pk, eta in loaded.values_list("pk", "eta"):
+            self.loaded_eta[pk] = eta
 
     def _all_done(self) -> bool:
         from scheduling.models import Task
@@ -456,6 +478,11 @@ class _Day:
                 (self.first_eta[t.pk] - t.delivered_at).total_seconds()
                 for t in delivered
                 if t.pk in self.first_eta
+            ],
+            eta_error_loaded=[
+                (self.loaded_eta[t.pk] - t.delivered_at).total_seconds()
+                for t in delivered
+                if t.pk in self.loaded_eta
             ],
         )
 
