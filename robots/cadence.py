@@ -11,9 +11,12 @@ does not wait for the interval: the push channel wakes a robot at once.
 
 The capacity is learned, not set: each web process measures the share of wall time it spends
 serving requests (core/busy.py, every request, over windows of about 2 s), a sample of the
-whole pool's since sync workers share one socket. After a window busier than HIGH_SHARE
+whole pool's since sync workers share one socket; the controller judges the share over
+consecutive windows covering at least the interval in force, in which every robot heartbeats
+once (robots answered at the workers' pace after a backlog come back bunched: a single 2 s
+window would see the bunch or the gap after it). After a judgement busier than HIGH_SHARE
 (requests wait for a worker) the interval is lengthened towards the one that would bring the
-share down to AIM_SHARE, at least one step; after a window so idle that one step shorter
+share down to AIM_SHARE, at least one step; after one so idle that one step shorter
 would still leave it under LOW_SHARE (estimated as if the share were proportional to the
 rate), it is shortened by one step, never below the site's own interval. Between the two it
 holds, so a steady load settles on one interval instead of swinging between two; and after a
@@ -57,30 +60,41 @@ class Controller:
     interval: float = 0.0
     judged_until: float = -math.inf  # windows ending earlier were judged
     judge_from: float = -math.inf  # windows starting earlier saw an interval since changed
+    gathered: float = 0.0  # seconds of windows gathered towards the next judgement
+    gathered_busy: float = 0.0  # of which spent serving
 
     def judge(self, window: Window, *, base: float) -> None:
-        """Lengthen or shorten the interval after one window; `base`: the site's interval."""
+        """Lengthen or shorten the interval after windows covering one interval; `base`: the
+        site's interval."""
         if window.end <= self.judged_until or window.start < self.judge_from:
             return
         self.judged_until = window.end
         current = max(self.interval, base)
+        # The share over at least one whole interval, in which every robot heartbeats once: a
+        # shorter window over robots whose phases bunched (a backlog drained at the workers'
+        # pace sends them back together) sees either the bunch or the gap after it.
+        self.gathered += window.end - window.start
+        self.gathered_busy += window.share * (window.end - window.start)
+        if self.gathered < current:
+            return
+        share = self.gathered_busy / self.gathered
+        self.gathered = self.gathered_busy = 0.0
         shorter = max(current - STEP_SECONDS, base)
-        if window.share > HIGH_SHARE:
-            wanted = max(current * window.share / AIM_SHARE, current + STEP_SECONDS)
+        if share > HIGH_SHARE:
+            wanted = max(current * share / AIM_SHARE, current + STEP_SECONDS)
             new = min(_stepped(wanted), max(settings.HEARTBEAT_INTERVAL_MAX, base))
-        elif self.interval > base and window.share * current / shorter < LOW_SHARE:
+        elif self.interval > base and share * current / shorter < LOW_SHARE:
             # Towards the interval that would bring the share to AIM_SHARE, as lengthening
             # does, not one step per judgement: a burst of requests saturates the workers for
             # a moment, and robots without the push channel would otherwise wait minutes of
             # long intervals for their plans once it is over.
-            new = min(max(_stepped(current * window.share / AIM_SHARE), base), shorter)
+            new = min(max(_stepped(current * share / AIM_SHARE), base), shorter)
         else:
             return
         if max(new, base) != current:
             logger.info(
-                "heartbeat cadence: busy %.0f%% of %.1f s, interval %.1f -> %.1f s",
-                100 * window.share,
-                window.end - window.start,
+                "heartbeat cadence: busy %.0f%%, interval %.1f -> %.1f s",
+                100 * share,
                 current,
                 max(new, base),
             )

@@ -133,7 +133,9 @@ def test_on_postgresql_the_hot_statements_are_prepared_once_per_connection(robot
     again = board_pending(robot=robot)
 
     new = [sql for sql in _prepared_statements() if sql not in before]
-    assert len(new) == 1 and "boards_boardmessage" in new[0] and "$1" in new[0]
+    assert len(new) == 1
+    assert "boards_boardmessage" in new[0]
+    assert "$1" in new[0]  # bound by the server
     assert [m.body for m in mine] == [m.body for m in again] == [{"action": "pause"}]
     assert others == []
 

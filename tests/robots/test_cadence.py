@@ -3,6 +3,7 @@ offline against the operator's ceiling, and how busy the web workers are (core/b
 presence deadlines follow the interval each robot was told, so a robot that obeys is never
 flipped. The controller is fed windows of the busy share directly: no clock, no sleep."""
 
+import heapq
 import time
 from datetime import timedelta
 
@@ -107,12 +108,12 @@ def windows(controller, shares, *, base=1.0, start=0.0):
 def test_it_lengthens_the_interval_while_the_workers_are_saturated():
     controller = Controller()
 
-    told = windows(controller, [1.0] * 6)
+    told = windows(controller, [1.0] * 7)
 
     # Aimed at a share of 0.6: 1 s x 1.0/0.6 -> 2 s; then no window is judged until every robot
-    # has heard it (the 1 s before), so the second window after lengthens it again: 2 s x 1.67
-    # -> 3.5 s, and so on.
-    assert told == [2.0, 2.0, 3.5, 3.5, 6.0, 6.0]
+    # has heard it (the 1 s before), and judgements take windows covering one whole interval:
+    # the next 2 s window lengthens it again, 2 s x 1.67 -> 3.5 s, which then takes two windows.
+    assert told == [2.0, 2.0, 3.5, 3.5, 3.5, 6.0, 6.0]
 
 
 def test_it_does_not_judge_the_windows_before_every_robot_heard_the_new_interval():
@@ -127,28 +128,38 @@ def test_it_does_not_judge_the_windows_before_every_robot_heard_the_new_interval
     assert controller.interval == 3.5
 
 
+def test_it_judges_the_share_over_a_whole_interval_not_one_short_window():
+    controller = Controller(interval=6.0)
+
+    # At 6 s, a 2 s window of a bunch of robots, then two of the gap after it: 40 % busy in all.
+    assert windows(controller, [1.0, 0.1, 0.1]) == [6.0, 6.0, 6.0]
+    # Had the first window alone been judged, it would have lengthened it to 10 s.
+
+
 def test_a_window_is_judged_once():
     controller = Controller(interval=3.0)
     window = Window(0.0, WINDOW, 0.1)
 
     controller.judge(window, base=1.0)
-    controller.judge(window, base=1.0)
+    controller.judge(window, base=1.0)  # not gathered twice: 2 s is not yet the 3 s interval
 
+    assert controller.interval == 3.0
+    controller.judge(Window(WINDOW, 2 * WINDOW, 0.1), base=1.0)
     assert controller.interval == 1.0
 
 
 def test_it_shortens_towards_the_aim_when_the_load_falls_and_never_below_the_site():
     controller = Controller(interval=3.0)
 
-    assert windows(controller, [0.05] * 4) == [1.0] * 4
+    assert windows(controller, [0.05] * 4) == [3.0] + [1.0] * 3  # judged once 3 s are seen
     assert controller.interval == 1.0
 
 
 def test_after_a_burst_it_comes_back_in_one_judgement_not_step_by_step():
     controller = Controller(interval=10.0)
 
-    # 20 % busy at 10 s: 10 x 0.2 / 0.6 = 3.3 s, told in whole steps: 3.5 s.
-    assert windows(controller, [0.2]) == [3.5]
+    # 20 % busy over the 10 s interval: 10 x 0.2 / 0.6 = 3.3 s, told in whole steps: 3.5 s.
+    assert windows(controller, [0.2] * 5) == [10.0] * 4 + [3.5]
 
 
 def test_it_holds_between_the_thresholds():
@@ -220,6 +231,43 @@ def test_it_follows_a_load_that_rises_then_falls():
     enough = told.index(next(t for t in told if t > 5.7))
     assert min(told[enough:60]) > 5.7
     assert told[60:] == sorted(told[60:], reverse=True)
+
+
+def start_up(controller, robots, *, capacity, seconds):
+    """Robots all starting at 1 Hz against a server taking `capacity` heartbeats/s one after the
+    other (first come, first served), each robot sending its next heartbeat the interval it was
+    told after its answer; the server's busy share closed into windows as core.busy does.
+    Returns (answered at, interval told) per heartbeat."""
+    service = 1.0 / capacity
+    due = [(n / robots, n) for n in range(robots)]  # phases spread over the first second
+    heapq.heapify(due)
+    free = window_start = window_busy = 0.0
+    told = []
+    while due and due[0][0] < seconds:
+        sent, robot = heapq.heappop(due)
+        free = max(sent, free) + service
+        window_busy += service
+        if free - window_start >= WINDOW:
+            share = min(window_busy / (free - window_start), 1.0)
+            controller.judge(Window(window_start, free, share), base=1.0)
+            window_start, window_busy = free, 0.0
+        interval = max(controller.interval, 1.0)
+        told.append((free, interval))
+        heapq.heappush(due, (free + interval, robot))
+    return told
+
+
+@pytest.mark.parametrize(("robots", "capacity"), [(500, 140), (1000, 200)])
+def test_after_a_start_up_backlog_it_settles_instead_of_swinging(robots, capacity):
+    # The first second's heartbeats queue; answered at the server's pace, the robots come back
+    # bunched, and a 2 s window sees the bunch or the gap after it. Judged on such windows the
+    # interval swung between 6 and 10 s for as long as it ran (2026-11-24).
+    told = start_up(Controller(), robots, capacity=capacity, seconds=300)
+
+    settled = {interval for at, interval in told if at > 60}
+    assert len(settled) == 1, sorted(settled)
+    (interval,) = settled
+    assert 0.4 < robots / interval / capacity <= HIGH_SHARE  # neither saturated nor idle
 
 
 def test_the_busy_share_is_the_time_spent_serving_over_a_window():
