@@ -139,6 +139,10 @@ def _run_all(args, settings: Settings) -> list[Result]:
                 "PYTHONHASHSEED": "0",  # set iteration order: the same run every time
                 "SECRET_KEY": os.environ.get("SECRET_KEY") or "bench-only",
                 "LOG_LEVEL": "WARNING",
+                # Robots heartbeat at the site's interval: the interval learned from how busy
+                # the server is (robots/cadence.py) would follow this simulation's own CPU time,
+                # not the simulated hospital's, and the day would not be the same twice.
+                "HEARTBEAT_CAPACITY": "0",
             }
             running[policy] = (subprocess.Popen(command, cwd=ROOT, env=env), out)
         results = []
@@ -164,7 +168,8 @@ def _print_header(settings: Settings, seed: int, argv) -> None:
     print(
         "Time-accelerated and deterministic: the server in-process (Django test client, SQLite),\n"
         "a virtual clock (time_machine), the due sweep called each simulated second (the others\n"
-        "every 5 s), allocation in the request or eager on commit.\n"
+        "every 5 s), allocation in the request or eager on commit, robots heartbeating at the\n"
+        "site's interval (HEARTBEAT_CAPACITY=0: no interval learned from this process's load).\n"
         "Same request stream, robots and staff delays for every policy; no network losses.\n"
     )
 
