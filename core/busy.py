@@ -6,8 +6,18 @@ A gunicorn sync worker serves one request at a time and all workers take connect
 socket, so each worker's share is a sample of the pool's: near 1 when requests wait for a
 worker (the pool is saturated), lower the more often a worker waits for a request. No shared
 state, no query: two clock readings and a few additions per request.
+
+Part of each request's cost is outside what a middleware can time: gunicorn reading the request
+and closing the connection, Django's handler around the middleware. Saturated, a worker goes
+from one request to the next after just that, so the time between its requests was read as
+idle and the share stayed under the controller's 80 % while requests queued (bench/heartbeat.py,
+1,000 robots, 2026-11-24: heartbeats answered in 0.85 s, the interval never lengthened). So
+the shortest pause between two requests seen so far, but never more than the window's mean
+time serving one request, counts as busy in every pause: it is what the worker needs between
+requests however busy it is (a worker serving one robot a second does not look busy for it).
 """
 
+import math
 import threading
 import time
 from dataclasses import dataclass
@@ -38,6 +48,10 @@ class BusyMeter:
         self._since = 0.0  # when this process began serving without a pause
         self._start: float | None = None  # of the current window
         self._busy = 0.0  # seconds served in the current window
+        self._idle_since: float | None = None  # when the last pause between requests began
+        self._pauses: list[float] = []  # seconds of each pause in the current window
+        self._served = 0  # requests finished in the current window
+        self._shortest = math.inf  # the shortest pause ever seen
 
     def started(self) -> None:
         with self._lock:
@@ -46,18 +60,29 @@ class BusyMeter:
                 self._start = now
             if not self._serving:
                 self._since = now
+                if self._idle_since is not None:
+                    self._pauses.append(now - self._idle_since)
+                    self._shortest = min(self._shortest, now - self._idle_since)
             self._serving += 1
 
     def finished(self) -> None:
         with self._lock:
             now = self.clock()
             self._serving -= 1
+            self._served += 1
             if self._serving:
                 return
             self._busy += now - self._since
+            self._idle_since = now
             if now - self._start >= self.window:
-                self.last = Window(self._start, now, min(self._busy / (now - self._start), 1.0))
-                self._start, self._busy = now, 0.0
+                share = (self._busy + self._overhead()) / (now - self._start)
+                self.last = Window(self._start, now, min(share, 1.0))
+                self._start, self._busy, self._pauses, self._served = now, 0.0, [], 0
+
+    def _overhead(self) -> float:
+        """Seconds of the window's pauses spent on the work between requests (module doc)."""
+        between = min(self._shortest, self._busy / self._served)
+        return sum(min(pause, between) for pause in self._pauses)
 
 
 busy = BusyMeter()

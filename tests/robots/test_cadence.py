@@ -281,7 +281,33 @@ def test_the_busy_share_is_the_time_spent_serving_over_a_window():
     meter.finished()
     meter.finished()
 
-    assert meter.last == Window(0.0, 2.5, 2.0 / 2.5)
+    # 2.0 s serving, and the one pause (0.5 s) is the shortest seen: the work between requests.
+    assert meter.last == Window(0.0, 2.5, 1.0)
+
+
+def share_of(requests: list[tuple[float, float]]) -> float:
+    """The share a BusyMeter reads from requests served one after another, (start, end) each."""
+    clock = iter([moment for request in requests for moment in request]).__next__
+    meter = BusyMeter(clock=clock, window=2.0)
+    for _ in requests:
+        meter.started(), meter.finished()
+    return meter.last.share
+
+
+def test_a_worker_going_from_request_to_request_is_read_as_saturated():
+    # 0.15 s per request, then 0.05 s outside what the middleware times (gunicorn reading the
+    # next request, closing the last connection) before the next: saturated, not 75 % busy.
+    requests = [(n * 0.2, n * 0.2 + 0.15) for n in range(11)]
+
+    assert share_of(requests) == pytest.approx(1.0)
+
+
+def test_pauses_count_as_busy_only_up_to_the_shortest_and_to_a_requests_time():
+    # One robot a second: 10 ms requests, 990 ms pauses of which 10 ms count (a request's time).
+    assert share_of([(n, n + 0.01) for n in range(4)]) == pytest.approx((0.03 + 0.02) / 2.01)
+    # Light load with one request straight after another (20 ms): every pause counts 20 ms.
+    requests = [(0.0, 0.1), (0.12, 0.22), (1.12, 1.22), (2.12, 2.22)]
+    assert share_of(requests) == pytest.approx((0.4 + 3 * 0.02) / 2.22)
 
 
 def saturated():
