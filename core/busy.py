@@ -9,12 +9,13 @@ state, no query: two clock readings and a few additions per request.
 
 Part of each request's cost is outside what a middleware can time: gunicorn reading the request
 and closing the connection, Django's handler around the middleware. Saturated, a worker goes
-from one request to the next after just that, so the time between its requests was read as
-idle and the share stayed under the controller's 80 % while requests queued (bench/heartbeat.py,
-1,000 robots, 2026-11-24: heartbeats answered in 0.85 s, the interval never lengthened). So
-the shortest pause between two requests seen so far, but never more than the window's mean
-time serving one request, counts as busy in every pause: it is what the worker needs between
-requests however busy it is (a worker serving one robot a second does not look busy for it).
+from one request to the next after just that, and that time would read as idle, holding the
+share under the controller's 80 % while requests queue. So the shortest pause between two
+requests seen so far, but never more than the window's mean time serving one request, counts
+as busy in every pause: it is what the worker needs between requests however busy it is (a
+worker serving one robot a second does not look busy for it). It was not the reason why, with
+1,000 robots and the default ceiling, bench/heartbeat.py saw heartbeats queue at the ceiling's
+4.5 s without the interval lengthening (2026-11-24, the same with and without it; README).
 """
 
 import math
