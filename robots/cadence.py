@@ -120,10 +120,20 @@ def heartbeat_interval_told(site: Site) -> float:
     while the web servers are saturated or the fleet would exceed the operator's ceiling."""
     if not settings.HEARTBEAT_CAPACITY:
         return site.heartbeat_interval
+    ceiling = _ceiling_interval(site)
     if busy.last is not None:
-        _controller.judge(busy.last, base=site.heartbeat_interval)
-    capped = settings.HEARTBEAT_CAPACITY * TARGET_SHARE
-    needed = max(_robots_heartbeating() / capped, _controller.interval)
+        # Judged from the interval robots are told, the ceiling's when that is longer: the
+        # share is what robots at that interval cause, and it is over that interval that every
+        # robot heartbeats once (judged from its own shorter one, the controller swung between
+        # 1 and 2.5 s under a ceiling's 4.5 s while heartbeats queued, 2026-11-24).
+        _controller.judge(busy.last, base=ceiling)
+    return max(_controller.interval, ceiling)
+
+
+def _ceiling_interval(site: Site) -> float:
+    """The site's interval, or the longer one that keeps the robots heartbeating under 90 % of
+    the operator's ceiling (at most HEARTBEAT_INTERVAL_MAX, unless the site's own is longer)."""
+    needed = _robots_heartbeating() / (settings.HEARTBEAT_CAPACITY * TARGET_SHARE)
     if needed <= site.heartbeat_interval:
         return site.heartbeat_interval
     # The cap bounds how much the load lengthens it, never shortens a site's own interval.

@@ -315,6 +315,16 @@ def saturated():
     busy.last = Window(time.monotonic() - WINDOW, time.monotonic(), 1.0)
 
 
+def test_under_the_ceilings_interval_it_lengthens_from_that_interval(robot_http, robot, settings):
+    settings.HEARTBEAT_CAPACITY = 10  # 21 robots: 2.5 s by the ceiling
+    robots_heartbeating(robot.site, 20)
+    busy.last = Window(time.monotonic() - 3.0, time.monotonic(), 1.0)  # one 2.5 s interval
+
+    # Saturated while robots are told 2.5 s: 2.5 x 1.0/0.6 -> 4.5 s. Judged from its own 1 s
+    # the controller asked 2 s, and robots were told the ceiling's 2.5 s still.
+    assert robot_http.heartbeat(1)["heartbeat_interval"] == 4.5
+
+
 def test_a_saturated_server_tells_robots_a_longer_interval(robot_http, robot, settings):
     settings.HEARTBEAT_CAPACITY = 1000  # the ceiling far away: the busy share decides
     saturated()
