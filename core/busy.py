@@ -14,8 +14,10 @@ share under the controller's 80 % while requests queue. So the shortest pause be
 requests seen so far, but never more than the window's mean time serving one request, counts
 as busy in every pause: it is what the worker needs between requests however busy it is (a
 worker serving one robot a second does not look busy for it). It was not the reason why, with
-1,000 robots and the default ceiling, bench/heartbeat.py saw heartbeats queue at the ceiling's
-4.5 s without the interval lengthening (2026-11-24, the same with and without it; README).
+1,000 robots and the default ceiling, bench/heartbeat.py saw heartbeats wait 0.85 s at the
+ceiling's 4.5 s while the share read under 80 % (2026-11-24, the same with and without it, and
+with the controller judging from the ceiling's interval; README): those requests wait where
+this share does not see, and where is not known yet.
 """
 
 import math
