@@ -423,20 +423,11 @@ class _Day:
 
     def _note_etas(self) -> None:
         """The ETA each task had when it was assigned (its first), to score it later."""
-        from scheduling.models import Task
-
-        estimated = Task.objects.filter(eta__isnull=False).exclude(pk__in=list(self.first_eta))
-        for pk, eta in estimated.values_list("pk", "eta"):
-            self.first_eta[pk] = eta
+        _note_new_etas(self.first_eta)
 
     def _note_loaded_etas(self) -> None:
         """The drop-off ETA of each task as it stood when it was picked up (recomputed then)."""
-        from scheduling.models import Task
-
-        loaded = Task.objects.filter(picked_up_at__isnull=False, eta__isnull=False)
-        loaded = loaded.exclude(pk__in=list(self.loaded_eta))
-        for pk, eta in loaded.values_list("pk", "eta"):
-            self.loaded_eta[pk] = eta
+        _note_new_etas(self.loaded_eta, picked_up_at__isnull=False)
 
     def _all_done(self) -> bool:
         from scheduling.models import Task
@@ -479,17 +470,22 @@ class _Day:
             lowest_battery=min(loop.robot.lowest_battery for loop in self.loops),
             priorities=[t.priority for t in delivered],
             on_time=[t.due_at is None or t.delivered_at <= t.due_at for t in delivered],
-            eta_error=[
-                (self.first_eta[t.pk] - t.delivered_at).total_seconds()
-                for t in delivered
-                if t.pk in self.first_eta
-            ],
-            eta_error_loaded=[
-                (self.loaded_eta[t.pk] - t.delivered_at).total_seconds()
-                for t in delivered
-                if t.pk in self.loaded_eta
-            ],
+            eta_error=_eta_errors(self.first_eta, delivered),
+            eta_error_loaded=_eta_errors(self.loaded_eta, delivered),
         )
+
+
+def _note_new_etas(noted: dict, **wanted) -> None:
+    """Add to `noted` (task pk -> ETA) the tasks with an ETA (and `wanted`) not noted yet."""
+    from scheduling.models import Task
+
+    fresh = Task.objects.filter(eta__isnull=False, **wanted).exclude(pk__in=list(noted))
+    noted.update(fresh.values_list("pk", "eta"))
+
+
+def _eta_errors(noted: dict, delivered) -> list[float]:
+    """Seconds, the noted ETA minus the actual drop-off, per delivered task that has one."""
+    return [(noted[t.pk] - t.delivered_at).total_seconds() for t in delivered if t.pk in noted]
 
 
 def _staff_user():
