@@ -51,12 +51,7 @@ def pin_check(pin: str, secure: dict) -> bool:
     """Whether `pin` opens a secure delivery, by its plan task's `secure` (protocol,
     "Secure deliveries"): PBKDF2-HMAC-SHA256 of the digits with the delivery's salt and
     iterations, compared in constant time. Needs no network."""
-    wire = secure["pin"]
-    if wire.get("algorithm") != "pbkdf2_sha256":
-        return False  # an algorithm this client does not know: never open
-    salt = bytes.fromhex(wire["salt"])
-    tried = hashlib.pbkdf2_hmac("sha256", pin.encode(), salt, int(wire["iterations"]))
-    return hmac.compare_digest(tried.hex(), wire["hash"])
+    return _opens(pin, secure["pin"])
 
 
 def badge_check(badge: str, secure: dict) -> str | None:
@@ -64,13 +59,19 @@ def badge_check(badge: str, secure: dict) -> str | None:
     task's `secure.badges` (protocol, "Secure deliveries"), else None. Each entry is checked
     as a PIN is, with its own salt and iterations; no network needed."""
     for entry in secure.get("badges", ()):
-        if entry.get("algorithm") != "pbkdf2_sha256":
-            continue  # an algorithm this client does not know: never opens
-        salt = bytes.fromhex(entry["salt"])
-        tried = hashlib.pbkdf2_hmac("sha256", badge.encode(), salt, int(entry["iterations"]))
-        if hmac.compare_digest(tried.hex(), entry["hash"]):
+        if _opens(badge, entry):
             return entry["holder"]
     return None
+
+
+def _opens(secret: str, wire: dict) -> bool:
+    """Whether a typed or read secret matches one hash as the plan carries it; an algorithm
+    this client does not know never opens."""
+    if wire.get("algorithm") != "pbkdf2_sha256":
+        return False
+    salt = bytes.fromhex(wire["salt"])
+    tried = hashlib.pbkdf2_hmac("sha256", secret.encode(), salt, int(wire["iterations"]))
+    return hmac.compare_digest(tried.hex(), wire["hash"])
 
 
 class TransportError(Exception):
