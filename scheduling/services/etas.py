@@ -229,7 +229,7 @@ def _travel_learn(robot: Robot, event: RobotEvent) -> list[str]:
         .first()
     )
     seconds = _between(before, event)
-    if seconds is None or _received_since(robot, event.task, before):
+    if seconds is None or _given_after(robot, event.task, before):
         return []
     places = _places(robot, [(before.task, before.stop), (event.task, event.stop)])
     if len(places) != 2 or places[0] == places[1]:
@@ -242,7 +242,7 @@ def _travel_learn(robot: Robot, event: RobotEvent) -> list[str]:
     return ["pace_travel"]
 
 
-def _received_since(robot: Robot, code: str, done: RobotEvent) -> bool:
+def _given_after(robot: Robot, code: str, done: RobotEvent) -> bool:
     """Whether the robot was given the task after it reported `done`: it then did not drive
     from that stop to this one all along (it went back to its dock, or waited there), and the
     time between the two events is not travel. Both times by the server's clock."""
