@@ -51,8 +51,11 @@ class HeldRoute:
         return not self.route.tasks
 
 
-def robot_routes(*, robots: Iterable[Robot], now: datetime | None = None) -> dict[int, HeldRoute]:
-    """Each robot's remaining route, in one query however many robots and tasks.
+def robot_routes(
+    *, robots: Iterable[Robot], now: datetime | None = None, excluding: Iterable[int] = ()
+) -> dict[int, HeldRoute]:
+    """Each robot's remaining route, in one query however many robots and tasks; without the
+    tasks `excluding` names (by pk).
 
     Stops already done are left out; a task picked up has only its drop-offs left; the load
     is what the done pick-ups and drop-offs of the robot's tasks left on board. Each task's
@@ -63,6 +66,7 @@ def robot_routes(*, robots: Iterable[Robot], now: datetime | None = None) -> dic
     stops = defaultdict(list)
     for stop in (
         TaskStop.objects.filter(task__robot__in=list(robots), task__status__in=ROUTE_STATUSES)
+        .exclude(task_id__in=list(excluding))
         .select_related("task")
         .order_by("task_id", "index")
     ):
@@ -70,8 +74,10 @@ def robot_routes(*, robots: Iterable[Robot], now: datetime | None = None) -> dic
     return {pk: _held_route(robot, stops[pk], now) for pk, robot in robots.items()}
 
 
-def robot_route(*, robot: Robot, now: datetime | None = None) -> HeldRoute:
-    return robot_routes(robots=[robot], now=now)[robot.pk]
+def robot_route(
+    *, robot: Robot, now: datetime | None = None, excluding: Iterable[int] = ()
+) -> HeldRoute:
+    return robot_routes(robots=[robot], now=now, excluding=excluding)[robot.pk]
 
 
 def task_stops(

@@ -227,7 +227,10 @@ class _Batch:
             robot = robot_lock_if_available(robot_id, self.site)
             if robot is None:
                 raise _ReadAgain(robot_id)
-            held = robot_route(robot=robot, now=self.now)
+            # Its route as read is without the tasks this batch claimed for it: compare like
+            # with like (with them, every chosen robot would look changed and plan them twice).
+            claimed = [task.pk for task, given in self.assigned if given.pk == robot_id]
+            held = robot_route(robot=robot, now=self.now, excluding=claimed)
             if held.signature != self.read[robot_id].signature:
                 self._replan(robot, held)
             self.locked[robot_id] = robot

@@ -90,3 +90,19 @@ def test_a_robot_whose_route_changed_meanwhile_plans_its_new_tasks_on_it(r1, sit
     planned = {stop["task"] for stop in plan.body["stops"]}
     assert planned == {task.code for task in [held, *new]}
     assert Task.objects.get(pk=held.pk).status == "acknowledged"
+
+
+def test_a_batch_plans_each_stop_once_and_is_made_once(r1, site, monkeypatch):
+    tasks = [request(site, receiver=f"Nurse {n}") for n in range(3)]
+    made = []
+    add = allocation._Batch.add
+    monkeypatch.setattr(
+        allocation._Batch, "add", lambda self, task: made.append(task) or add(self, task)
+    )
+
+    assert site_allocate_due(site_id=site.pk) == 3
+
+    assert len(made) == 3  # not made again: its own tasks are no change of the robot's route
+    [plan] = pending_plans(r1)
+    stops = [(stop["task"], stop["action"]) for stop in plan.body["stops"]]
+    assert sorted(stops) == sorted((t.code, a) for t in tasks for a in ("pickup", "dropoff"))
