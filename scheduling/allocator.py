@@ -24,9 +24,9 @@ import math
 import sys
 import time
 from collections import Counter
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from functools import cached_property
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, replace
+from functools import cached_property, lru_cache
 from operator import sub
 
 EXACT_TASK_LIMIT = 6  # tasks in one route (held + new) that are still solved exactly
@@ -109,7 +109,7 @@ def allocate(
     With metric travel times (shortest paths obey the triangle inequality) lower bounds prune
     the search; pass metric=False for times that may not. Ties go to the smallest robot code.
     """
-    travel = _Travel(travel_time)
+    travel, robots = _Travel(travel_time), _distinct(robots)
     bounds = [_lower_bound(task, robot, travel) if metric else 0.0 for robot in robots]
     metric = metric and not travel.saw_infinity
     best = None
@@ -153,8 +153,8 @@ def allocate_for_delivery_time(
     """
     travel = _Travel(travel_time)
     best = None
-    for robot in sorted(robots, key=lambda robot: robot.robot):
-        base = _route(robot, robot.tasks, travel)
+    for robot in _distinct(robots):
+        base = _held_route(replace(robot, robot=""), travel_time)
         plan = base and _route(robot, (*robot.tasks, task), travel)
         if not plan or not math.isfinite(plan.cost):
             continue
@@ -197,7 +197,7 @@ def allocate_standby_first(
     """
     travel = _Travel(travel_time)
     best = None
-    for robot in sorted((r for r in robots if not r.tasks), key=lambda robot: robot.robot):
+    for robot in _distinct(r for r in robots if not r.tasks):
         plan = _plan(robot, (task,), travel)
         if not plan or not math.isfinite(plan.cost):
             continue
@@ -205,6 +205,25 @@ def allocate_standby_first(
         if best is None or reach < best[0] - TOLERANCE:
             best = (reach, Allocation(robot.robot, plan, plan.cost))
     return best[1] if best else allocate(task, robots, travel_time)
+
+
+@lru_cache(maxsize=1024)
+def _held_route(robot: RobotRoute, travel_time: TravelTime) -> Plan | None:
+    """The robot's best route as it is (_route): the same for every task of a batch that does
+    not go to it. By route, not by robot (`robot` is nameless): robots alike share it."""
+    return _route(robot, robot.tasks, _Travel(travel_time))
+
+
+def _distinct(robots: Iterable[RobotRoute]) -> list[RobotRoute]:
+    """The robots by code, without those whose route (start, load, tasks, pace, ...) is the
+    same as a robot's before them: they would be made the same offer, and ties go to the
+    smallest code. A burst offers each task to every robot; most stand empty at a few docks."""
+    seen, distinct = set(), []
+    for robot in sorted(robots, key=lambda robot: robot.robot):
+        if (route := replace(robot, robot="")) not in seen:
+            seen.add(route)
+            distinct.append(robot)
+    return distinct
 
 
 def _done_at(robot: RobotRoute, plan: Plan, travel: _Travel) -> dict[str, float]:

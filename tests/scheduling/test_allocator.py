@@ -12,6 +12,7 @@ import pytest
 
 from bench.instances import Instance, building, many_to_one, one_to_many, one_to_one
 from bench.instances import random_instance as generated
+from scheduling import allocator
 from scheduling.allocator import (
     EXACT_TASK_LIMIT,
     PICKUP,
@@ -367,6 +368,37 @@ def test_by_delivery_time_lateness_comes_first():
     assert allocate_for_delivery_time(task, [busy, idle], _on_a_line).robot == "R-01"
     due = replace(task, due=500.0)
     assert allocate_for_delivery_time(due, [busy, idle], _on_a_line).robot == "R-02"
+
+
+@pytest.mark.parametrize("rule", [allocate, allocate_for_delivery_time, allocate_standby_first])
+def test_of_robots_alike_one_is_solved_for_all_and_the_smallest_code_wins(rule, monkeypatch):
+    # A burst offers each task to every robot, most standing empty at a few docks: robots
+    # whose routes are alike get the same offer, so one of them is solved for all.
+    solved = set()
+    plan = allocator._plan
+    monkeypatch.setattr(
+        allocator, "_plan", lambda robot, *a: solved.add(robot.robot) or plan(robot, *a)
+    )
+    alike = [RobotRoute(f"R-{n:02d}", start="500", load=0, capacity=4, tasks=()) for n in (9, 3, 7)]
+    farther = RobotRoute("R-01", start="900", load=0, capacity=4, tasks=())
+    task = one_to_one("T-0002", "600", "700")
+
+    assert rule(task, [*alike, farther], _on_a_line).robot == "R-03"
+    assert solved <= {"R-03", "R-01", ""}  # "": a route solved without the task, by route
+
+
+def test_a_route_solved_before_is_not_reused_with_other_travel_times():
+    busy = _carrying_to("0", "1000")
+    idle = RobotRoute("R-02", start="500", load=0, capacity=4, tasks=())
+    task = one_to_one("T-0002", "600", "700")
+
+    def slower(a: str, b: str) -> float:
+        return 2 * _on_a_line(a, b)
+
+    assert allocate_for_delivery_time(task, [busy, idle], slower).robot == "R-02"
+    # Were R-01's route of 2,000 s without the task taken for the 1,000 s it is now, the task
+    # would seem to save it 1,000 s and go to it.
+    assert allocate_for_delivery_time(task, [busy, idle], _on_a_line).robot == "R-02"
 
 
 def test_it_generates_metric_travel_times():
