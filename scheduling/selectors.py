@@ -7,7 +7,16 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta
 
-from django.db.models import Case, IntegerField, Prefetch, Q, QuerySet, Value, When
+from django.db.models import (
+    Case,
+    IntegerField,
+    Prefetch,
+    Q,
+    QuerySet,
+    Value,
+    When,
+    prefetch_related_objects,
+)
 from django.utils import timezone
 
 from boards.choices import EventType
@@ -140,16 +149,28 @@ def stations_by_code(*, site: Site, codes: Iterable[str]) -> dict[str, Waypoint]
 
 def task_list(*, status: str | None = None) -> QuerySet[Task]:
     tasks = Task.objects.select_related("site", "robot", "requester", "recurring").prefetch_related(
-        Prefetch("stops", queryset=TaskStop.objects.select_related("waypoint"))
+        _STOPS
     )
     return tasks.filter(status=status) if status else tasks
 
 
 def task_detail(*, code: str) -> Task | None:
-    history = TaskTransition.objects.select_related("robot", "event", "user")
-    return (
-        task_list().prefetch_related(Prefetch("history", queryset=history)).with_code(code).first()
-    )
+    return task_list().prefetch_related(_HISTORY).with_code(code).first()
+
+
+def task_detail_of(task: Task) -> Task:
+    """task_detail of a task this request holds, having just created or changed it: its row,
+    site, requester, robot and recurring request as the request has them (kept up to date by
+    the services that changed them); its stops and history read (two queries, not three).
+    A nurse's request answers sooner (bench/latency.py)."""
+    prefetch_related_objects([task], _STOPS, _HISTORY)
+    return task
+
+
+_STOPS = Prefetch("stops", queryset=TaskStop.objects.select_related("waypoint"))
+_HISTORY = Prefetch(
+    "history", queryset=TaskTransition.objects.select_related("robot", "event", "user")
+)
 
 
 def given_back_entries(task: Task) -> list[TaskTransition]:

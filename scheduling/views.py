@@ -8,7 +8,7 @@ from core.errors import ErrorSerializer
 from robots.models import Resource, Site
 from scheduling.choices import TaskStatus
 from scheduling.models import Task
-from scheduling.selectors import task_detail, task_list
+from scheduling.selectors import task_detail, task_detail_of, task_list
 from scheduling.serializers import (
     ResourceOutOfServiceSerializer,
     ResourceServiceSerializer,
@@ -85,7 +85,7 @@ class TaskViewSet(mixins.ListModelMixin, viewsets.GenericViewSet):
         serializer = TaskRequestSerializer(data=request.data)
         serializer.is_valid(raise_exception=True)
         task = task_request(requester=request.user, **serializer.validated_data)
-        detail = TaskDetailSerializer(task_detail(code=task.code)).data
+        detail = TaskDetailSerializer(task_detail_of(task)).data
         if task.secure:  # the only time anyone sees it: only its hash is kept
             detail["pin"] = task.pin_plain
         return Response(detail, status=status.HTTP_201_CREATED)

@@ -18,6 +18,7 @@ from django.db import transaction
 from django.utils import timezone
 
 from core import changes
+from core.statements import Statement
 from scheduling.models import TaskTransition
 from webhooks.choices import TASK_STATUS_CHANGED, DeliveryState
 from webhooks.models import Subscription, WebhookDelivery
@@ -40,13 +41,7 @@ def deliveries_for_change(*, kind: str, site_id: int, subject, **_) -> list[int]
     subscribes."""
     if kind != changes.TASK or subject.old == subject.new:
         return []
-    wanted = [
-        subscription
-        for subscription in Subscription.objects.filter(site_id=site_id, active=True)
-        .select_related("site")
-        .order_by("pk")
-        if subscription.wants(subject.new)
-    ]
+    wanted = [s for s in _ACTIVE.all(site_id=site_id) if s.wants(subject.new)]
     if not wanted:
         return []
     payload = task_event_payload(subject)
@@ -61,6 +56,17 @@ def deliveries_for_change(*, kind: str, site_id: int, subject, **_) -> list[int]
         for subscription in wanted
     ]
     return [row.pk for row in WebhookDelivery.objects.bulk_create(rows)]
+
+
+# Every status change of every task asks: a statement compiled once (core/statements.py).
+_ACTIVE = Statement(
+    lambda site_id: (
+        Subscription.objects.filter(site_id=site_id, active=True)
+        .select_related("site")
+        .order_by("pk")
+    ),
+    site_id=int,
+)
 
 
 def task_event_payload(entry: TaskTransition) -> dict:

@@ -74,6 +74,32 @@ def test_it_answers_a_task_already_given_to_a_free_robot(api, r1):
     assert [h["cause"] for h in body["history"]] == ["request", "allocation"]
 
 
+@pytest.mark.parametrize(
+    "overrides",
+    [
+        {},  # given to R1 at once: its plan, ETAs and allocation in the history
+        {"priority": "stat", "due_by": "in a minute"},  # late: its lateness note
+        {"secure": True},  # R1 has no lockable compartment: stays due, with why
+        {"requested_time": "in two hours"},
+        {"repeat": {"times": ["08:00"]}},
+    ],
+)
+def test_the_answer_to_a_request_is_the_task_as_it_then_reads(api, r1, overrides):
+    # The answer is built from what the request holds, not read back (bench/latency.py).
+    soon = {"in a minute": timedelta(minutes=1), "in two hours": timedelta(hours=2)}
+    body = {
+        name: (timezone.now() + soon[value]).isoformat() if str(value) in soon else value
+        for name, value in overrides.items()
+    }
+
+    response = api("post", "tasks/", valid(**body))
+
+    assert response.status_code == 201, response.content
+    answer = response.json()
+    answer.pop("pin", None)  # the answer alone carries a secure delivery's PIN
+    assert answer == api("get", f"tasks/{answer['code']}").json()
+
+
 def test_it_schedules_a_task_requested_for_later(api, site):
     later = timezone.now() + timedelta(hours=2)
 
