@@ -1,4 +1,5 @@
-"""Statements of the heartbeat's hot path, compiled once per process instead of once per call.
+"""Statements of the hot paths (the heartbeat's; the webhook subscriptions every task status
+change looks up), compiled once per process instead of once per call.
 
 Django builds a queryset's SQL again every time it is evaluated: the lookups are resolved, the
 joins set up, every column named and quoted. For the statements a heartbeat always runs (find

@@ -154,7 +154,7 @@ def allocate_for_delivery_time(
     travel = _Travel(travel_time)
     best = None
     for robot in _distinct(robots):
-        base = _held_route(replace(robot, robot=""), travel_time)
+        base = _held_plan(replace(robot, robot=""), travel_time)
         plan = base and _route(robot, (*robot.tasks, task), travel)
         if not plan or not math.isfinite(plan.cost):
             continue
@@ -208,7 +208,7 @@ def allocate_standby_first(
 
 
 @lru_cache(maxsize=1024)
-def _held_route(robot: RobotRoute, travel_time: TravelTime) -> Plan | None:
+def _held_plan(robot: RobotRoute, travel_time: TravelTime) -> Plan | None:
     """The robot's best route as it is (_route): the same for every task of a batch that does
     not go to it. By route, not by robot (`robot` is nameless): robots alike share it."""
     return _route(robot, robot.tasks, _Travel(travel_time))
