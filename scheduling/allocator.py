@@ -147,26 +147,68 @@ def allocate_for_delivery_time(
                                          + the weighted delay it adds to the held tasks)
 
     so a busy robot still takes a task on its way, an idle one takes a task a busy robot would
-    only reach late, and a STAT task takes the robot that drops it off in time. Every robot is
-    solved (no cross-robot pruning): fine for the fleet of one hospital. `added_cost` of the
-    result is the added travel alone.
+    only reach late, and a STAT task takes the robot that drops it off in time. `added_cost` of
+    the result is the added travel alone. Robots are tried nearest the task first; a robot
+    whose route is on time and least-travel is skipped when even the new task's own waiting
+    (from reaching its farthest stop, `_earliest_done`) is more than the best offer's second
+    part while that one is on time: such a robot can add no lateness, and no negative travel
+    or delay. Ties go to the smallest robot code.
     """
+    return _by_delivery_time(task, robots, travel_time, waiting_weight, prune=True)
+
+
+def _by_delivery_time(task, robots, travel_time, waiting_weight: float, *, prune: bool):
     travel = _Travel(travel_time)
-    best = None
-    for robot in _distinct(robots):
+    best = None  # ((weighted lateness, travel + waiting), Allocation)
+    robots = _distinct(robots)
+    nearest = {robot.robot: _earliest_done(task, robot, travel) for robot in robots}
+    for robot in sorted(robots, key=lambda robot: (nearest[robot.robot], robot.robot)):
         base = _held_plan(replace(robot, robot=""), travel_time)
-        plan = base and _route(robot, (*robot.tasks, task), travel)
+        if not base:
+            continue
+        least = waiting_weight * task.weight * nearest[robot.robot]
+        if prune and best and _cannot_win(best[0], least, robot, base, travel):
+            continue
+        plan = _route(robot, (*robot.tasks, task), travel)
         if not plan or not math.isfinite(plan.cost):
             continue
         late, waiting = _delays(robot, base, plan, (*robot.tasks, task), task.code, travel)
         key = (math.floor(late), plan.cost - base.cost + waiting_weight * waiting)
-        if (
-            best is None
-            or key[0] < best[0][0]
-            or (key[0] == best[0][0] and key[1] < best[0][1] - TOLERANCE)
-        ):
+        if best is None or _before(key, robot.robot, *best):
             best = (key, Allocation(robot.robot, plan, plan.cost - base.cost))
     return best and best[1]
+
+
+def _before(key: tuple[int, float], code: str, best: tuple[int, float], held: Allocation) -> bool:
+    """Whether an offer with `key` from robot `code` beats the best so far (ties: the code)."""
+    if key[0] != best[0]:
+        return key[0] < best[0]
+    if abs(key[1] - best[1]) > TOLERANCE:
+        return key[1] < best[1]
+    return code < held.robot
+
+
+def _earliest_done(task: TaskStops, robot: RobotRoute, travel: _Travel) -> float:
+    """A lower bound on when the robot can be done with the task: it reaches the task's farthest
+    stop no sooner than straight there (metric travel times), and stops at each of them."""
+    stops = (*task.pickups, *task.dropoffs)
+    farthest = max(travel[robot.start][stop.place] for stop in stops)
+    return robot.pace * farthest + robot.dwell * len(stops)
+
+
+def _cannot_win(best: tuple[int, float], least: float, robot: RobotRoute, base: Plan, travel):
+    """Whether the robot's offer is sure to lose to `best` without solving it: its held route
+    is exact, least-travel and on time (so the task adds no negative travel, delay or
+    lateness), and the best offer is on time with less than `least`, the new task's own least
+    weighted waiting with this robot."""
+    if best[0] > 0 or len(robot.tasks) + 1 > EXACT_TASK_LIMIT:
+        return False
+    if any(t.weight > 1.0 for t in robot.tasks):  # its route may be hurried, not least-travel
+        return False
+    done = _done_at(robot, base, travel)
+    if any(done.get(t.code, 0.0) > t.due for t in robot.tasks):  # late: it may be hurried
+        return False
+    return best[0] < 0 or least > best[1] + TOLERANCE
 
 
 def _delays(robot, base: Plan, plan: Plan, tasks, new: str, travel: _Travel):

@@ -370,6 +370,49 @@ def test_by_delivery_time_lateness_comes_first():
     assert allocate_for_delivery_time(due, [busy, idle], _on_a_line).robot == "R-02"
 
 
+@pytest.mark.parametrize("seed", range(120))
+def test_by_delivery_time_robots_skipped_unsolved_could_not_have_won(seed):
+    # Against solving every robot: the same robot and route on random hospitals whose tasks
+    # carry due times and priorities' weights, some robots late, some idle, some paced.
+    rng = random.Random(seed)
+    instance = random_instance(seed, robots=8, held=(0, 3), capacity=(3, 6), on_board=0.4)
+    fleet = [_with_deadlines(rng, robot) for robot in instance.robots]
+    task = replace(instance.task, **_deadline(rng))
+    times = instance.travel_time
+
+    pruned = allocate_for_delivery_time(task, fleet, times)
+    every = allocator._by_delivery_time(task, fleet, times, 1.0, prune=False)
+
+    assert (pruned and pruned.robot) == (every and every.robot)
+    assert (pruned and pruned.plan) == (every and every.plan)
+
+
+def _with_deadlines(rng: random.Random, robot: RobotRoute) -> RobotRoute:
+    tasks = tuple(replace(task, **_deadline(rng)) for task in robot.tasks)
+    pace, dwell = rng.choice([(1.0, 0.0), (0.5, 20.0), (1.6, 45.0)])
+    return replace(robot, tasks=tasks, pace=pace, dwell=dwell)
+
+
+def _deadline(rng: random.Random) -> dict:
+    weight = rng.choice([1.0, 1.0, 1.0, 2.0, 8.0])
+    due = rng.choice([math.inf, math.inf, rng.uniform(0, 600), rng.uniform(600, 3000)])
+    return {"weight": weight, "due": due}
+
+
+def test_by_delivery_time_the_nearest_robot_on_time_spares_solving_far_ones(monkeypatch):
+    solved = set()
+    route = allocator._route
+    monkeypatch.setattr(
+        allocator, "_route", lambda robot, *a: solved.add(robot.robot) or route(robot, *a)
+    )
+    near = RobotRoute("R-02", start="500", load=0, capacity=4, tasks=())
+    far = _carrying_to("9000", "9500", code="R-01")
+    task = one_to_one("T-0002", "600", "700")
+
+    assert allocate_for_delivery_time(task, [far, near], _on_a_line).robot == "R-02"
+    assert "R-01" not in solved  # 8,400 s from the task: it could not be done sooner than 200 s
+
+
 @pytest.mark.parametrize("rule", [allocate, allocate_for_delivery_time, allocate_standby_first])
 def test_of_robots_alike_one_is_solved_for_all_and_the_smallest_code_wins(rule, monkeypatch):
     # A burst offers each task to every robot, most standing empty at a few docks: robots
