@@ -192,15 +192,15 @@ def _earliest_done(task: TaskStops, robot: RobotRoute, travel: _Travel) -> float
     """A lower bound on when the robot can be done with the task: it reaches the task's farthest
     stop no sooner than straight there (metric travel times), and stops at each of them."""
     stops = (*task.pickups, *task.dropoffs)
-    farthest = max(travel[robot.start][stop.place] for stop in stops)
+    farthest = max((travel[robot.start][stop.place] for stop in stops), default=0.0)
     return robot.pace * farthest + robot.dwell * len(stops)
 
 
 def _cannot_win(best: tuple[int, float], least: float, robot: RobotRoute, base: Plan, travel):
     """Whether the robot's offer is sure to lose to `best` without solving it: its held route
     is exact, least-travel and on time (so the task adds no negative travel, delay or
-    lateness), and the best offer is on time with less than `least`, the new task's own least
-    weighted waiting with this robot."""
+    lateness), and the best offer takes lateness away, or adds none and less than `least`, the
+    new task's own least weighted waiting with this robot."""
     if best[0] > 0 or len(robot.tasks) + 1 > EXACT_TASK_LIMIT:
         return False
     if any(t.weight > 1.0 for t in robot.tasks):  # its route may be hurried, not least-travel
