@@ -410,7 +410,8 @@ def test_by_delivery_time_the_nearest_robot_on_time_spares_solving_far_ones(monk
     task = one_to_one("T-0002", "600", "700")
 
     assert allocate_for_delivery_time(task, [far, near], _on_a_line).robot == "R-02"
-    assert "R-01" not in solved  # 8,400 s from the task: it could not be done sooner than 200 s
+    # R-02's offer: 200 s of travel, the task done at 200 s (400); R-01 is 8,400 s away.
+    assert "R-01" not in solved
 
 
 @pytest.mark.parametrize("rule", [allocate, allocate_for_delivery_time, allocate_standby_first])
