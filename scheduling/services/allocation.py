@@ -229,7 +229,7 @@ class _Batch:
                 raise _ReadAgain(robot_id)
             # Its route as read is without the tasks this batch claimed for it: compare like
             # with like (with them, every chosen robot would look changed and plan them twice).
-            claimed = [task.pk for task, given in self.assigned if given.pk == robot_id]
+            claimed = [task.pk for task in self._added(robot_id).values()]
             held = robot_route(robot=robot, now=self.now, excluding=claimed)
             if held.signature != self.read[robot_id].signature:
                 self._replan(robot, held)
@@ -242,9 +242,14 @@ class _Batch:
         plan = best_plan(route, router_for(self.site).travel_time)
         if plan is None or not robot_can_finish(robot=robot, start=route.start, stops=plan.stops):
             raise _ReadAgain(robot.pk)
-        new = {c: t for c, t in self.routes[robot.pk].tasks.items() if c not in read.tasks}
+        new = self._added(robot.pk)
         self.routes[robot.pk] = replace(held, route=route, tasks={**held.tasks, **new})
         self.stops[robot.pk], self.start[robot.pk] = plan.stops, route.start
+
+    def _added(self, robot_id: int) -> dict[str, Task]:
+        """The tasks this batch gave the robot, by code."""
+        read = self.read[robot_id].tasks
+        return {code: t for code, t in self.routes[robot_id].tasks.items() if code not in read}
 
     def post(self) -> None:
         """One plan per robot given tasks, then each task's history and deadline check; the
