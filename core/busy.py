@@ -16,8 +16,8 @@ as busy in every pause: it is what the worker needs between requests however bus
 worker serving one robot a second does not look busy for it). It was not the reason why, with
 1,000 robots and the default ceiling, bench/heartbeat.py saw heartbeats wait 0.85 s at the
 ceiling's 4.5 s while the share read under 80 % (2026-11-24, the same with and without it, and
-with the controller judging from the ceiling's interval; README): those requests wait where
-this share does not see, and where is not known yet.
+with the controller judging from the ceiling's interval; README). Two later runs did not
+reproduce that queue (p50 101 and 8.9 ms, README); where those requests waited is not known.
 """
 
 import math
