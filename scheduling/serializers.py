@@ -9,6 +9,8 @@ from rest_framework import serializers
 from rest_framework.fields import SkipField, get_error_detail
 
 from core.fields import StrictCharField, StrictDateTimeField, StrictIntegerField
+from core.serializers import FieldsKeptPerThread
+from core.statements import Statement
 from robots.models import Site
 from scheduling.choices import PRIORITY_ALIASES, Priority, TaskStatus
 from scheduling.deadlines import lateness_note, priority_of
@@ -78,7 +80,7 @@ def _window(attrs: dict) -> dict:
     return {"from": attrs["from"], "until": attrs["until"]}
 
 
-class TaskRequestSerializer(serializers.Serializer):
+class TaskRequestSerializer(FieldsKeptPerThread, serializers.Serializer):
     site = StrictCharField(required=False, help_text="site code; needed only with several sites")
     sender = StrictCharField(max_length=200)
     receiver = StrictCharField(max_length=200)
@@ -109,7 +111,7 @@ class TaskRequestSerializer(serializers.Serializer):
     )
 
     def validate_site(self, code):
-        site = Site.objects.filter(code=code).first()
+        site = _SITE_BY_CODE.first(code=code)
         if site is None:
             raise serializers.ValidationError(f"unknown site {code!r}")
         return site
@@ -188,7 +190,7 @@ def _due_by_check(attrs: dict, found: dict) -> None:
 
 
 def _only_site(found: dict) -> Site | None:
-    sites = list(Site.objects.all()[:2])
+    sites = _TWO_SITES.all()
     if len(sites) != 1:
         found["site"] = ["required: name the site"]
         return None
@@ -207,6 +209,11 @@ def _station_errors(name: str, codes: list[str], stations: dict, pickups) -> dic
         elif code in pickups:
             errors[n] = [f"{stations[code].label} is also a pick-up"]
     return {name: errors} if errors else {}
+
+
+# Every delivery request reads its site: compiled once (core.statements).
+_SITE_BY_CODE = Statement(lambda code: Site.objects.filter(code=code), code=str)
+_TWO_SITES = Statement(lambda: Site.objects.all()[:2])  # one site, or "name the site"
 
 
 class TaskStopSerializer(serializers.ModelSerializer):
@@ -228,7 +235,7 @@ class RecurringSerializer(serializers.ModelSerializer):
 STATUS_HELP = f"one of: {', '.join(TaskStatus.values)}"
 
 
-class TaskSerializer(serializers.ModelSerializer):
+class TaskSerializer(FieldsKeptPerThread, serializers.ModelSerializer):
     code = serializers.CharField(read_only=True)
     # Plain strings in the schema: enums named "status"/"priority" exist in the robot protocol.
     status = serializers.CharField(help_text=STATUS_HELP)

@@ -5,7 +5,9 @@ from datetime import timedelta
 from unittest.mock import ANY
 
 import pytest
+from django.db import connection
 from django.test import Client
+from django.test.utils import CaptureQueriesContext
 from django.utils import timezone
 
 from robots.models import Alert
@@ -191,6 +193,35 @@ def test_it_refuses_many_to_many(api):
     assert response.status_code == 400
     assert list(response.json()["detail"]) == ["dropoffs"]
     assert not Task.objects.exists()
+
+
+def test_a_request_finds_its_stations_on_the_cached_map(api, site):
+    api("post", "tasks/", valid())  # the map of this version read and cached
+
+    with CaptureQueriesContext(connection) as queries:
+        response = api("post", "tasks/", valid())
+
+    assert response.status_code == 201, response.content
+    assert [s["station"] for s in response.json()["stops"]] == ["Pharmacy", "Ward 3"]
+    read = [q["sql"] for q in queries.captured_queries if 'FROM "robots_waypoint"' in q["sql"]]
+    assert not read
+    stops = Task.objects.with_code(response.json()["code"]).get().stops.order_by("index")
+    assert [stop.waypoint.code for stop in stops] == ["1F-PHARM", "3F-WARD"]
+
+
+def test_a_station_gone_from_a_new_map_version_is_refused(api, site):
+    assert api("post", "tasks/", valid()).status_code == 201  # the old version cached
+    data = copy.deepcopy(factories.TINY_SITE)
+    for floor in data["floors"]:
+        for waypoint in floor["waypoints"]:
+            if waypoint["code"] == "3F-WARD":
+                waypoint["kind"] = "plain"
+    site_load(data=data)
+
+    response = api("post", "tasks/", valid())
+
+    assert response.status_code == 400
+    assert response.json()["detail"] == {"dropoffs[0]": ["unknown station '3F-WARD'"]}
 
 
 def test_it_sets_load_changes_by_delivery_type(api, site):
