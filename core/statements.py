@@ -1,5 +1,6 @@
 """Statements of the hot paths (the heartbeat's; the webhook subscriptions every task status
-change looks up), compiled once per process instead of once per call.
+change looks up; a delivery request's token, site, and the stops and history of its answer),
+compiled once per process instead of once per call.
 
 Django builds a queryset's SQL again every time it is evaluated: the lookups are resolved, the
 joins set up, every column named and quoted. For the statements a heartbeat always runs (find

@@ -39,7 +39,7 @@ from scheduling.models import AllocationLock, Task, TaskStop
 from scheduling.selectors import HeldRoute, robot_route, robot_routes, task_stops
 from scheduling.services.charging import robot_can_finish
 from scheduling.services.etas import deadline_alert, task_deadline_check
-from scheduling.services.history import allocation_enqueue, task_record
+from scheduling.services.history import allocation_enqueue, task_record, tasks_record
 from scheduling.services.plans import plan_post
 
 logger = logging.getLogger(__name__)
@@ -266,8 +266,8 @@ class _Batch:
                 now=self.now,
                 wake_at_once=False,
             )
+        tasks_record(self.assigned, old=TaskStatus.DUE, at=self.now, cause=Cause.ALLOCATION)
         for task, robot in self.assigned:
-            task_record(task, old=TaskStatus.DUE, at=self.now, cause=Cause.ALLOCATION, robot=robot)
             task_deadline_check(task=task, robot=robot)
 
 

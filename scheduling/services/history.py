@@ -34,7 +34,22 @@ def task_record(
     note: str = "",
 ) -> TaskTransition:
     """Add an entry to the task's history (old == new for events that changed no status)."""
-    entry = TaskTransition.objects.create(
+    entry = _entry(task, old, at, cause, robot=robot, event=event, user=user, note=note)
+    entry.save(force_insert=True)
+    changes.changed(kind=changes.TASK, site_id=task.site_id, subject=entry)
+    return entry
+
+
+def tasks_record(moved: list[tuple[Task, object]], *, old: str, at: datetime, cause: str) -> None:
+    """task_record for several tasks (each with its robot) in one insert: an allocation batch
+    gives a burst's tasks their robots together (bench/latency.py)."""
+    entries = [_entry(task, old, at, cause, robot=robot) for task, robot in moved]
+    for entry in TaskTransition.objects.bulk_create(entries):
+        changes.changed(kind=changes.TASK, site_id=entry.task.site_id, subject=entry)
+
+
+def _entry(task, old, at, cause, robot=None, event=None, user=None, note="") -> TaskTransition:
+    return TaskTransition(
         task=task,
         at=at,
         old=old,
@@ -45,8 +60,6 @@ def task_record(
         user=user,
         note=note[:300],
     )
-    changes.changed(kind=changes.TASK, site_id=task.site_id, subject=entry)
-    return entry
 
 
 def allocation_enqueue(task_id: int) -> None:

@@ -1,5 +1,9 @@
 """A burst of due tasks is allocated in one batch under the site's lock (real PostgreSQL)."""
 
+from django.db import connection
+from django.test.utils import CaptureQueriesContext
+
+from core import changes
 from scheduling.models import Task, TaskTransition
 from scheduling.services import allocation, site_allocate_due, task_allocate_with_its_site
 from tests.scheduling.conftest import pending_plans, request
@@ -18,6 +22,30 @@ def test_it_allocates_a_burst_in_one_batch_with_one_plan_per_robot(r1, r2, site)
     assert sorted(set(planned)) == sorted(task.code for task in [*tasks, stat])
     first = TaskTransition.objects.filter(cause="allocation").order_by("id").first()
     assert first.task_id == stat.pk  # STAT first
+
+
+def test_a_batch_records_its_allocations_in_one_insert_each_told(r1, r2, site):
+    tasks = [request(site, receiver=f"Nurse {n}") for n in range(4)]
+    told = []
+
+    def watch(kind, subject, **_):
+        if kind == changes.TASK:
+            told.append(subject)
+
+    with changes.changed.watched_by(watch), CaptureQueriesContext(connection) as queries:
+        assert site_allocate_due(site_id=site.pk) == 4
+
+    inserts = [
+        q
+        for q in queries.captured_queries
+        if q["sql"].startswith('INSERT INTO "scheduling_tasktransition"')
+    ]
+    assert len(inserts) == 1
+    entries = TaskTransition.objects.filter(cause="allocation")
+    assert sorted((e.task_id, e.old, e.new, e.robot_id) for e in entries) == sorted(
+        (t.pk, "due", "assigned", Task.objects.get(pk=t.pk).robot_id) for t in tasks
+    )
+    assert sorted(entry.pk for entry in told) == sorted(e.pk for e in entries)
 
 
 def test_the_workers_message_allocates_its_task_with_the_rest_of_its_site(r1, site):

@@ -1,0 +1,21 @@
+"""bench/request_cpu.py --quick runs to completion in CI."""
+
+import re
+
+import pytest
+
+from tests.bench.quick import run_quick
+
+pytestmark = pytest.mark.slow
+
+
+def test_it_measures_the_cpu_time_of_a_delivery_request():
+    output = run_quick("bench/request_cpu.py")
+
+    assert "2 rounds of 20 requests" in output
+    samples = re.search(r"CPU ms per request: ([\d. ]+)", output).group(1).split()
+    assert len(samples) == 2
+    assert all(0 < float(sample) < 1000 for sample in samples)
+    # The token, the site; BEGIN, the task, its stops, its history entry, the webhooks to tell,
+    # COMMIT; its stops and history read for the answer. The stations come from the cached map.
+    assert re.search(r"queries per request: (\d+)", output).group(1) == "10"
