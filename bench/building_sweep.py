@@ -23,7 +23,7 @@ from pathlib import Path
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench.stack import temporary_database
+from bench.stack import database_option, temporary_database
 
 ROOT = Path(__file__).resolve().parent.parent
 SITE_FILE = ROOT / "sites" / "eulji.yaml"
@@ -32,13 +32,7 @@ SITE_FILE = ROOT / "sites" / "eulji.yaml"
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="20 sweeps each: for CI")
-    parser.add_argument(
-        "--database",
-        default=os.environ.get(
-            "DATABASE_URL", "postgres://hospital_delivery@127.0.0.1:5432/postgres"
-        ),
-        help="server (and role) for the throwaway database",
-    )
+    database_option(parser)
     options = parser.parse_args()
     sweeps = 20 if options.quick else 200
     with temporary_database(options.database) as url:

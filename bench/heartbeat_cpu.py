@@ -30,7 +30,7 @@ from pathlib import Path
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench.stack import temporary_database
+from bench.stack import database_option, temporary_database
 
 ROOT = Path(__file__).resolve().parent.parent
 SITE_FILE = ROOT / "sites" / "eulji.yaml"
@@ -40,13 +40,7 @@ WARMUP = 200  # heartbeats before measuring: caches (site map, router, statement
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="2 rounds of 100: for CI")
-    parser.add_argument(
-        "--database",
-        default=os.environ.get(
-            "DATABASE_URL", "postgres://hospital_delivery@127.0.0.1:5432/postgres"
-        ),
-        help="server (and role) for the throwaway database",
-    )
+    database_option(parser)
     options = parser.parse_args()
     rounds, per_round = (2, 100) if options.quick else (5, 1000)
     with temporary_database(options.database) as url:

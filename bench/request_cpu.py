@@ -32,7 +32,7 @@ from pathlib import Path
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench.stack import temporary_database
+from bench.stack import database_option, queue_forget, temporary_database
 
 WARMUP = 30  # requests before measuring: caches (site map, statements, serializers) filled
 
@@ -40,13 +40,7 @@ WARMUP = 30  # requests before measuring: caches (site map, statements, serializ
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="2 rounds of 20: for CI")
-    parser.add_argument(
-        "--database",
-        default=os.environ.get(
-            "DATABASE_URL", "postgres://hospital_delivery@127.0.0.1:5432/postgres"
-        ),
-        help="server (and role) for the throwaway database",
-    )
+    database_option(parser)
     options = parser.parse_args()
     rounds, per_round = (2, 20) if options.quick else (5, 100)
     with temporary_database(options.database) as url:
@@ -72,6 +66,7 @@ def measure(database_url: str, *, rounds: int, per_round: int) -> tuple[list[flo
     import django
 
     django.setup()
+    from django.conf import settings
     from django.db import connection
     from django.test.utils import CaptureQueriesContext
 
@@ -101,19 +96,8 @@ def measure(database_url: str, *, rounds: int, per_round: int) -> tuple[list[flo
     with CaptureQueriesContext(connection) as queries:
         send(1)
     outbox.drain(timeout=10)
-    _forget_queue(app.conf.task_default_queue)
+    queue_forget(settings.REDIS_URL, app.conf.task_default_queue)
     return samples, len(queries.captured_queries)
-
-
-def _forget_queue(queue: str) -> None:
-    import redis
-    from django.conf import settings
-
-    client = redis.Redis.from_url(settings.REDIS_URL, socket_timeout=2, socket_connect_timeout=2)
-    try:
-        client.delete(queue, f"_kombu.binding.{queue}", f"_kombu.binding_permanent.{queue}")
-    finally:
-        client.close()
 
 
 if __name__ == "__main__":

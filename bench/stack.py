@@ -42,6 +42,31 @@ def free_port() -> int:
         return probe.getsockname()[1]
 
 
+def database_option(parser) -> None:
+    """A benchmark's --database: the server (and role) where it makes its throwaway database
+    (temporary_database), by default DATABASE_URL's."""
+    parser.add_argument(
+        "--database",
+        default=os.environ.get(
+            "DATABASE_URL", "postgres://hospital_delivery@127.0.0.1:5432/postgres"
+        ),
+        help="server (and role) for the throwaway database",
+    )
+
+
+def queue_forget(redis_url: str, queue: str) -> None:
+    """Remove a Celery queue of a benchmark's own from Redis, with what kombu keeps of it."""
+    import redis
+
+    client = redis.Redis.from_url(redis_url, socket_timeout=2, socket_connect_timeout=2)
+    try:
+        client.delete(queue, f"_kombu.binding.{queue}", f"_kombu.binding_permanent.{queue}")
+    except redis.RedisError:
+        pass  # a stalled Redis (SilentRedis) holds no queue to forget
+    finally:
+        client.close()
+
+
 def _port_open(port: int) -> bool:
     with socket.socket() as probe:
         return probe.connect_ex(("127.0.0.1", port)) == 0
@@ -220,17 +245,7 @@ class Stack:
         self._forget_queue()
 
     def _forget_queue(self) -> None:
-        import redis
-
-        client = redis.Redis.from_url(self.redis_url, socket_timeout=2, socket_connect_timeout=2)
-        try:
-            client.delete(
-                self.queue, f"_kombu.binding.{self.queue}", f"_kombu.binding_permanent.{self.queue}"
-            )
-        except redis.RedisError:
-            pass  # a stalled Redis (SilentRedis) holds no queue to forget
-        finally:
-            client.close()
+        queue_forget(self.redis_url, self.queue)
 
 
 class SilentRedis:
