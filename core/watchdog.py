@@ -8,13 +8,14 @@ acknowledgement timeouts stop being enforced, so every page shows an alert and /
 answers 503 naming it.
 """
 
-import functools
 import logging
 import time
 from datetime import UTC, datetime
 
 import redis
 from django.conf import settings
+
+from core.redisclient import redis_client, redis_key
 
 logger = logging.getLogger(__name__)
 
@@ -30,14 +31,7 @@ def _sweeps() -> dict[str, float]:
 
 
 def _key(task_name: str) -> str:
-    # The channels prefix keeps deployments (and test runs) sharing one Redis apart.
-    prefix = settings.CHANNEL_LAYERS["default"]["CONFIG"].get("prefix", "hospital_delivery")
-    return f"{prefix}:sweep-ran:{task_name}"
-
-
-@functools.cache
-def _redis() -> redis.Redis:
-    return redis.Redis.from_url(settings.REDIS_URL, socket_timeout=0.5, socket_connect_timeout=0.5)
+    return redis_key("sweep-ran", task_name)
 
 
 def sweep_ran(sender=None, **kwargs) -> None:
@@ -49,7 +43,7 @@ def sweep_ran(sender=None, **kwargs) -> None:
 
 def sweep_record(task_name: str, at: float | None = None) -> None:
     try:
-        _redis().set(_key(task_name), at if at is not None else time.time())
+        redis_client().set(_key(task_name), at if at is not None else time.time())
     except redis.RedisError:
         logger.warning("could not record that %s ran", task_name)
 
@@ -57,7 +51,7 @@ def sweep_record(task_name: str, at: float | None = None) -> None:
 def sweeps_last_runs() -> dict[str, float | None]:
     """Each sweep's last run (Unix time, or None if never), by task name; raises RedisError."""
     names = sorted(_sweeps())
-    runs = _redis().mget([_key(name) for name in names])
+    runs = redis_client().mget([_key(name) for name in names])
     return {
         name: None if raw is None else float(raw) for name, raw in zip(names, runs, strict=True)
     }

@@ -419,15 +419,52 @@ def _heuristic_offer(task, robot, travel) -> Allocation | None:
 
 def _plan(robot: RobotRoute, tasks: tuple[TaskStops, ...], travel: _Travel) -> Plan | None:
     if len(tasks) <= EXACT_TASK_LIMIT:
-        problem = _problem(robot, tasks, travel)
-        found = _held_karp(problem, math.inf, _least_arrivals(problem))
-        return found and _as_plan(problem, *found)
+        found = _least_travel_order(robot, tasks, travel)
+        if found is None:
+            return None
+        stops = [stop for task in tasks for stop in (*task.pickups, *task.dropoffs)]
+        return Plan(tuple(stops[j] for j in found[1]), found[0], exact=True)
     earlier = _plan(robot, tasks[:-1], travel)
     plan = earlier and _inserted(robot, earlier.stops, tasks[-1], travel)
     return plan and _improved(robot, plan, travel)
 
 
 # Exact: Held-Karp with precedence and capacity.
+
+# Least-travel orders solved, by the shape of the problem: the robot's start, load and
+# capacities and, per task in order, the places and load changes of its stops; not the tasks'
+# codes, due times or weights, which the least-travel order does not depend on. A burst offers
+# task after task to the same robots, whose routes change only when they take one, and many
+# tasks of a burst go between the same two stations (a ward's samples to the lab): about half
+# the solves of a batch of 100 (bench/latency.py's burst) are then looked up, not solved again.
+# Cleared whole when full; keyed by the travel-time function too (one per site map version).
+_ORDERS: dict = {}
+ORDERS_KEPT = 20_000
+_UNSOLVED = object()
+
+
+def _least_travel_order(robot: RobotRoute, tasks: Sequence[TaskStops], travel: _Travel):
+    """(cost, stop numbers in order) of the least-travel route of the tasks' stops, numbered
+    as _problem numbers them; None if no order is feasible."""
+    key = (travel.travel_time, _shape(robot, tasks))
+    found = _ORDERS.get(key, _UNSOLVED)
+    if found is _UNSOLVED:
+        problem = _problem(robot, tasks, travel)
+        found = _held_karp(problem, math.inf, _least_arrivals(problem))
+        found = found and (found[0], tuple(found[1]))
+        if len(_ORDERS) >= ORDERS_KEPT:
+            _ORDERS.clear()
+        _ORDERS[key] = found
+    return found
+
+
+def _shape(robot: RobotRoute, tasks: Sequence[TaskStops]) -> tuple:
+    shapes = tuple((_stops_shape(task.pickups), _stops_shape(task.dropoffs)) for task in tasks)
+    return robot.start, robot.load, robot.capacity, robot.lockable, robot.secure_load, shapes
+
+
+def _stops_shape(stops: Sequence[Stop]) -> tuple:
+    return tuple((stop.place, stop.load_change, stop.secure) for stop in stops)
 
 
 @dataclass

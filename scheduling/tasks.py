@@ -6,10 +6,13 @@ from django.db import OperationalError
 
 from core.sweeps import sweep_report
 from scheduling import services
+from scheduling.pending import allocation_pending_free
 
 
 @shared_task(autoretry_for=(OperationalError,), retry_backoff=True, max_retries=5)
-def allocate_task(task_id: int) -> None:
+def allocate_task(task_id: int, pending: str = "") -> None:
+    if pending:  # the site's claim (scheduling/pending.py); messages sent before it carry none
+        allocation_pending_free(pending)
     services.task_allocate_with_its_site(task_id=task_id)
 
 

@@ -91,7 +91,7 @@ def task_allocate_created(*, task: Task, stops: list[TaskStop], now: datetime) -
                 return
     except Exception:
         logger.exception("allocating new task %s failed; the worker tries again", task.code)
-    allocation_enqueue(task.pk)
+    allocation_enqueue(task)
 
 
 def site_allocate_due(*, site_id: int, now: datetime | None = None) -> int:

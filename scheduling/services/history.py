@@ -8,6 +8,7 @@ from django.db import transaction
 from core import changes
 from core.outbox import send_soon
 from scheduling.models import Task, TaskTransition
+from scheduling.pending import allocation_pending_claim
 
 logger = logging.getLogger(__name__)
 
@@ -62,16 +63,21 @@ def _entry(task, old, at, cause, robot=None, event=None, user=None, note="") -> 
     )
 
 
-def allocation_enqueue(task_id: int) -> None:
-    """Ask a Celery worker to allocate the task once this transaction commits.
+def allocation_enqueue(task: Task) -> None:
+    """Ask a Celery worker to allocate the task, with every due task of its site, once this
+    transaction commits; not if a message for the site is already on its way
+    (scheduling/pending.py).
 
     Best effort: if the message is lost (or Redis is down) the due sweep allocates it.
     """
-    send = lambda: _send_allocation(task_id)  # noqa: E731
+    task_id, site_id = task.pk, task.site_id
+    send = lambda: _send_allocation(task_id, site_id)  # noqa: E731
     transaction.on_commit(lambda: send_soon(send, what=f"allocating task {task_id}"))
 
 
-def _send_allocation(task_id: int) -> None:
+def _send_allocation(task_id: int, site_id: int) -> None:
     from scheduling.tasks import allocate_task  # the tasks module imports the services
 
-    allocate_task.delay(task_id)
+    pending = allocation_pending_claim(site_id, allocate_task.app.conf.task_default_queue)
+    if pending is not None:
+        allocate_task.delay(task_id, pending=pending)

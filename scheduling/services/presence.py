@@ -71,7 +71,7 @@ def task_give_back(task: Task, robot: Robot, at: datetime, *, avoid: bool = Fals
         task.timed_out_robot = robot
         fields.append("timed_out_robot")
     task_move(task, TaskStatus.DUE, at=at, fields=fields, robot=robot, **why)
-    allocation_enqueue(task.pk)
+    allocation_enqueue(task)
 
 
 def _alert_loaded(robot: Robot, tasks: list[Task]) -> None:

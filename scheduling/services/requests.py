@@ -135,7 +135,7 @@ def task_create(
     if due and settings.ALLOCATE_ON_REQUEST:
         task_allocate_created(task=task, stops=stops, now=now)
     elif due:
-        allocation_enqueue(task.pk)
+        allocation_enqueue(task)
     return task
 
 

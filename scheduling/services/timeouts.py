@@ -41,5 +41,5 @@ def ack_timeout_step(*, task_id: int, robot_id: int, now: datetime) -> int:
     )
     plan_withdraw_pending(robot=robot, reason=f"{task.code} not acknowledged in time", now=now)
     robot_replan(robot=robot, now=now)
-    allocation_enqueue(task.pk)
+    allocation_enqueue(task)
     return 1

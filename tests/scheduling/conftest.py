@@ -14,7 +14,7 @@ from hospital_delivery.celery import app as celery_app
 from robots.models import Robot, Waypoint
 from scheduling import tasks as celery_tasks
 from scheduling.models import Task
-from scheduling.services import task_request
+from scheduling.services import history, task_request
 from tests import factories, servers
 
 _event_ids = itertools.count(1)
@@ -35,9 +35,13 @@ def celery_sink_queue():
 
 @pytest.fixture
 def enqueued(monkeypatch):
-    """Task ids handed to Celery for allocation (the message itself is not sent)."""
+    """Task ids handed to Celery for allocation (the message itself is not sent), each: no
+    worker takes these messages, so none may hold the next back (scheduling/pending.py)."""
     sent = []
-    monkeypatch.setattr(celery_tasks.allocate_task, "delay", sent.append)
+    monkeypatch.setattr(
+        celery_tasks.allocate_task, "delay", lambda task_id, **_: sent.append(task_id)
+    )
+    monkeypatch.setattr(history, "allocation_pending_claim", lambda site_id, queue: "claimed")
     return sent
 
 

@@ -536,3 +536,29 @@ def test_its_heuristic_routes_keep_secure_items_within_the_lockable_compartments
     assert not plan.exact
     assert_valid_route(robot, plan, site.travel_time, task)
     assert _most_secure_on_board(plan) == 1
+
+
+def test_a_task_shaped_like_one_already_solved_for_a_robot_reuses_its_order_with_its_own_stops(
+    monkeypatch,
+):
+    robot = _carrying_to("0", "1000")
+    first, second = one_to_one("T-0002", "600", "700"), one_to_one("T-0003", "600", "700")
+    solves = []
+    held_karp = allocator._held_karp
+    monkeypatch.setattr(allocator, "_ORDERS", {})
+    monkeypatch.setattr(allocator, "_held_karp", lambda *a: solves.append(a) or held_karp(*a))
+
+    planned = best_plan(robot, _on_a_line, extra=first)
+    solved = len(solves)
+    again = best_plan(robot, _on_a_line, extra=second)
+
+    assert len(solves) == solved  # the same places and loads: looked up, not solved again
+    assert again.cost == planned.cost
+    assert [(s.task, s.place) for s in again.stops] == [
+        ("T-0003", "600"),
+        ("T-0003", "700"),
+        ("T-0001", "1000"),
+    ]
+    other = best_plan(robot, _on_a_line, extra=one_to_one("T-0004", "600", "1700"))
+    assert len(solves) > solved  # another drop-off: another problem, solved
+    assert [s.place for s in other.stops] == ["600", "1000", "1700"]

@@ -4,6 +4,7 @@ from django.db import connection
 from django.test.utils import CaptureQueriesContext
 
 from core import changes
+from scheduling import tasks as celery_tasks
 from scheduling.models import Task, TaskTransition
 from scheduling.services import allocation, site_allocate_due, task_allocate_with_its_site
 from tests.scheduling.conftest import pending_plans, request
@@ -134,3 +135,24 @@ def test_a_batch_plans_each_stop_once_and_is_made_once(r1, site, monkeypatch):
     [plan] = pending_plans(r1)
     stops = [(stop["task"], stop["action"]) for stop in plan.body["stops"]]
     assert sorted(stops) == sorted((t.code, a) for t in tasks for a in ("pickup", "dropoff"))
+
+
+def test_a_site_has_one_allocation_message_on_its_way_until_the_worker_takes_it(
+    r1, site, monkeypatch, django_capture_on_commit_callbacks
+):
+    sent = []
+    monkeypatch.setattr(
+        celery_tasks.allocate_task,
+        "delay",
+        lambda task_id, pending: sent.append((task_id, pending)),
+    )
+    with django_capture_on_commit_callbacks(execute=True):
+        first, second = request(site), request(site, receiver="Dr Lee")
+    assert [task for task, _ in sent] == [first.pk]  # the second's is the first's message
+
+    celery_tasks.allocate_task(*sent[0])  # the worker takes it: a batch of both
+
+    assert {Task.objects.get(pk=t.pk).status for t in (first, second)} == {"assigned"}
+    with django_capture_on_commit_callbacks(execute=True):
+        third = request(site, receiver="Dr Kim")
+    assert [task for task, _ in sent] == [first.pk, third.pk]  # the site's key was freed

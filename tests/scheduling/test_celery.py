@@ -168,7 +168,7 @@ def test_a_lost_message_is_made_up_for_by_the_due_sweep(celery, bots, site, monk
     bot = bots("R1")
     bot.beat()
     with monkeypatch.context() as lost:
-        lost.setattr(celery_tasks.allocate_task, "delay", lambda task_id: None)
+        lost.setattr(celery_tasks.allocate_task, "delay", lambda task_id, **_: None)
         task = request(site)
     celery.wait_idle()
     assert holder(task) is None

@@ -7,6 +7,7 @@ import requests
 from django.conf import settings
 
 from core import watchdog as healthz
+from core.redisclient import redis_client
 from tests.security.conftest import ApiHttp, logged_in_session
 
 SWEEPS = sorted(entry["task"] for entry in settings.CELERY_BEAT_SCHEDULE.values())
@@ -22,9 +23,9 @@ def all_sweeps_ran(seconds_ago: float = 0.0, *, except_=()):
 def fresh_sweep_records():
     """Each test starts with no sweep on record (this run's own Redis keys)."""
     keys = [healthz._key(name) for name in SWEEPS]
-    healthz._redis().delete(*keys)
+    redis_client().delete(*keys)
     yield
-    healthz._redis().delete(*keys)
+    redis_client().delete(*keys)
 
 
 def test_it_answers_200_when_everything_runs(live_server):
@@ -57,12 +58,12 @@ def test_it_answers_503_naming_a_sweep_that_stopped(live_server):
 
 def test_it_answers_503_when_redis_is_unreachable(live_server, monkeypatch):
     monkeypatch.setattr(settings, "REDIS_URL", "redis://127.0.0.1:1/0")
-    healthz._redis.cache_clear()
+    redis_client.cache_clear()
     try:
         response = requests.get(f"{live_server.url}/healthz", timeout=30)
     finally:
         monkeypatch.undo()
-        healthz._redis.cache_clear()
+        redis_client.cache_clear()
 
     assert response.status_code == 503
     assert response.json()["redis"] == "down"
