@@ -204,8 +204,10 @@ class BenchRobot:
     """A RobotClient at its dock that notes when a plan brings each task, and reports every
     task done at once (loaded, unloaded, completed) so that it is empty for the next run."""
 
-    def __init__(self, server_url: str, code: str, token: str, dock: str):
-        self.client = RobotClient(server_url=server_url, robot=code, token=token)
+    def __init__(self, server_url: str, code: str, token: str, dock: str, transport=None):
+        self.client = RobotClient(
+            server_url=server_url, robot=code, token=token, transport=transport
+        )
         self.client.update_state(status="idle", floor="15F", waypoint=dock, battery=1.0)
         self.token = token
         self.received: dict[str, float] = {}

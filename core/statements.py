@@ -1,5 +1,6 @@
 """Statements of the hot paths (the heartbeat's; the webhook subscriptions every task status
-change looks up; a delivery request's token, site, and the stops and history of its answer),
+change looks up; a delivery request's token, site, and the stops and history of its answer;
+an allocation's lock, available robots, their routes' stops and the chosen robot's last plan),
 compiled once per process instead of once per call.
 
 Django builds a queryset's SQL again every time it is evaluated: the lookups are resolved, the
@@ -67,7 +68,7 @@ class _Compiled:
 
 
 class Statement:
-    """A queryset built by `build` from named values (their types in `kinds`: str or int),
+    """A queryset built by `build` from named values (their types in `kinds`: str, int or float),
     compiled once per database vendor, then run with other values.
 
         robot_by_token = Statement(lambda token_hash: Robot.objects.filter(...), token_hash=str)
@@ -126,9 +127,11 @@ class Statement:
 def _stand_in(name: str, kind: type):
     if kind is int:
         return next(_stand_ins)
+    if kind is float:  # unequal to every other stand-in: they share the counter
+        return float(next(_stand_ins))
     if kind is str:
         return f"\x1fstand-in {name} {next(_stand_ins)}\x1f"
-    raise TypeError(f"{name}: stand-ins are str or int, not {kind}")
+    raise TypeError(f"{name}: stand-ins are str, int or float, not {kind}")
 
 
 _updates: dict[tuple, tuple[str, list]] = {}

@@ -3,6 +3,7 @@ for the pages (sites, the fleet, open alerts)."""
 
 from django.db.models import QuerySet
 
+from core.statements import Statement
 from robots.choices import Presence, RobotStatus
 from robots.mapcache import waypoint_by_id
 from robots.models import Alert, Robot, Site, SiteMembership
@@ -20,23 +21,32 @@ def robots_for_allocation(*, site: Site) -> list[Robot]:
     sent to charge (until charged), and with a reported battery level at or above the site's
     threshold (a robot that never reported has none).
     """
-    robots = list(available_robots(site).order_by("code"))
+    robots = _AVAILABLE.all(site_id=site.pk, threshold=site.battery_threshold)
     for robot in robots:
         robot.site = site
     return robots
 
 
-def available_robots(site: Site) -> QuerySet[Robot]:
-    """The site's robots that may be offered a new task (see robots_for_allocation)."""
+def available_robots(site_id: int, threshold: float) -> QuerySet[Robot]:
+    """The site's robots that may be offered a new task (see robots_for_allocation), for its
+    battery threshold."""
     return Robot.objects.filter(
-        site=site,
+        site_id=site_id,
         presence__in=REACHABLE,
         paused_by_operator=False,
         fault_at__isnull=True,
         sent_to_charge=False,
         battery__isnull=False,
-        battery__gte=site.battery_threshold,
+        battery__gte=threshold,
     ).exclude(status__in=UNAVAILABLE_STATUSES)
+
+
+# Every allocation reads them (a nurse's request among them): compiled once (core.statements).
+_AVAILABLE = Statement(
+    lambda site_id, threshold: available_robots(site_id, threshold).order_by("code"),
+    site_id=int,
+    threshold=float,
+)
 
 
 def robot_position(robot: Robot) -> str:

@@ -79,13 +79,23 @@ def robot_lock_if_available(robot_id: int, site: Site) -> Robot | None:
     For the scheduler, which reads the candidates unlocked: an operator's Pause, a presence
     flip or a heartbeat reporting an error may have come in between.
     """
-    return _locking(available_robots(site)).filter(pk=robot_id).first()
+    return _AVAILABLE_LOCKED.first(
+        site_id=site.pk, threshold=site.battery_threshold, robot_id=robot_id
+    )
 
 
 def _locking(robots: QuerySet[Robot]) -> QuerySet[Robot]:
     return robots.select_for_update(of=("self",), no_key=True).select_related("site")
 
 
+_AVAILABLE_LOCKED = Statement(
+    lambda site_id, threshold, robot_id: _locking(
+        available_robots(site_id, threshold).filter(pk=robot_id)
+    )[:1],
+    site_id=int,
+    threshold=float,
+    robot_id=int,
+)
 _ROBOT_BY_TOKEN_LOCKED = Statement(
     lambda token_hash: _locking(Robot.objects.filter(token_hash=token_hash))[:1], token_hash=str
 )

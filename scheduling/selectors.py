@@ -64,15 +64,38 @@ def robot_routes(
     """
     now = now or timezone.now()
     robots = {robot.pk: robot for robot in robots}
+    excluding = set(excluding)
     stops = defaultdict(list)
-    for stop in (
-        TaskStop.objects.filter(task__robot__in=list(robots), task__status__in=ROUTE_STATUSES)
-        .exclude(task_id__in=list(excluding))
-        .select_related("task")
-        .order_by("task_id", "index")
-    ):
-        stops[stop.task.robot_id].append(stop)
+    for stop in _route_stops(robots):
+        if stop.task.robot_id in robots and stop.task_id not in excluding:
+            stops[stop.task.robot_id].append(stop)
     return {pk: _held_route(robot, stops[pk], now) for pk, robot in robots.items()}
+
+
+def _route_stops(robots: dict[int, Robot]) -> list[TaskStop]:
+    """The stops of the robots' route tasks, by task and index: of the robot alone, or of its
+    site's robots (one statement, robot or site, compiled once: every allocation and every
+    heartbeat reporting progress reads them); any other set of robots, by the ORM."""
+    if len(robots) == 1:
+        return _ROBOT_ROUTE_STOPS.all(robot_id=next(iter(robots)))
+    sites = {robot.site_id for robot in robots.values()}
+    if len(sites) == 1:
+        return _SITE_ROUTE_STOPS.all(site_id=sites.pop())
+    return list(_route_stops_of(task__robot__in=list(robots)))
+
+
+def _route_stops_of(**where) -> QuerySet[TaskStop]:
+    stops = TaskStop.objects.filter(task__status__in=ROUTE_STATUSES, **where)
+    return stops.select_related("task").order_by("task_id", "index")
+
+
+_ROBOT_ROUTE_STOPS = Statement(
+    lambda robot_id: _route_stops_of(task__robot_id=robot_id), robot_id=int
+)
+_SITE_ROUTE_STOPS = Statement(
+    lambda site_id: _route_stops_of(task__site_id=site_id, task__robot__isnull=False),
+    site_id=int,
+)
 
 
 def robot_route(

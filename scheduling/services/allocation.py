@@ -21,6 +21,7 @@ from django.db import transaction
 from django.db.models import Case, IntegerField, Value, When
 from django.utils import timezone
 
+from core.statements import Statement
 from robots.mapcache import router_for
 from robots.models import Robot, Site
 from robots.selectors import robots_for_allocation
@@ -331,14 +332,24 @@ def _allocation_lock(site_id: int, *, wait: bool = True) -> Site | None:
 
     Without `wait`, None if another transaction holds it.
     """
-    locked = AllocationLock.objects.select_for_update(of=("self",), skip_locked=not wait)
-    locked = locked.select_related("site").filter(site_id=site_id)
-    lock = locked.first()
+    lock = _LOCK[wait].first(site_id=site_id)
     if lock is None:  # held by another transaction, or the site's first allocation
         _, created = AllocationLock.objects.get_or_create(site_id=site_id)
         if created or wait:
-            lock = locked.get()
+            lock = _LOCK[True].first(site_id=site_id)  # this transaction's own row: not skipped
     return lock.site if lock else None
+
+
+def _lock_row(site_id: int, *, wait: bool):
+    locked = AllocationLock.objects.select_for_update(of=("self",), skip_locked=not wait)
+    return locked.select_related("site").filter(site_id=site_id)[:1]
+
+
+# Every allocation takes it (a nurse's request among them): compiled once (core.statements).
+_LOCK = {
+    wait: Statement(lambda site_id, wait=wait: _lock_row(site_id, wait=wait), site_id=int)
+    for wait in (True, False)
+}
 
 
 @ALLOCATION_SECONDS.time()

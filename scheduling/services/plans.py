@@ -12,6 +12,7 @@ from boards import protocol
 from boards.choices import MessageType
 from boards.models import BoardMessage
 from boards.services import board_post, board_withdraw
+from core.statements import Statement
 from robots.mapcache import router_for
 from robots.models import Robot
 from robots.router import Router
@@ -158,7 +159,14 @@ def _post(
 
 def _current_plan(robot: Robot) -> RobotPlan | None:
     """The last plan posted for the robot, with its board message."""
-    return RobotPlan.objects.filter(robot=robot).select_related("message").first()
+    return _CURRENT_PLAN.first(robot_id=robot.pk)
+
+
+# Every plan posted reads it (a nurse's request among them): compiled once (core.statements).
+_CURRENT_PLAN = Statement(
+    lambda robot_id: RobotPlan.objects.filter(robot_id=robot_id).select_related("message")[:1],
+    robot_id=int,
+)
 
 
 def _may_be_pending(current: RobotPlan | None) -> bool:

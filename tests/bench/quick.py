@@ -8,14 +8,15 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def run_quick(script: str, timeout: float = 300) -> str:
-    """Run `python SCRIPT --quick` from the repository root; its output, or fail with it.
+def run_quick(script: str, *options: str, timeout: float = 300) -> str:
+    """Run `python SCRIPT --quick [OPTIONS]` from the repository root; its output, or fail
+    with it.
 
     The benchmark makes and drops a database of its own on the server of DATABASE_URL (the test
     settings' PostgreSQL) and uses the test Redis (REDIS_URL) with a queue of its own.
     """
     finished = subprocess.run(
-        [sys.executable, script, "--quick"],
+        [sys.executable, script, "--quick", *options],
         cwd=ROOT,
         env={**os.environ, "PYTHONUNBUFFERED": "1"},
         capture_output=True,

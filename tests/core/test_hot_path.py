@@ -35,6 +35,24 @@ def test_a_statement_finds_what_the_orm_finds_with_each_calls_values(site):
     assert found[0].errors == Robot.objects.get(pk=second.pk).errors  # converters applied
 
 
+def test_a_statement_takes_floats_and_finds_what_the_orm_finds(site):
+    robots = [factories.robot_create(site, f"R{n}") for n in range(1, 4)]
+    for robot, battery in zip(robots, (0.2, 0.5, 0.8), strict=True):
+        Robot.objects.filter(pk=robot.pk).update(battery=battery)
+    charged = Statement(
+        lambda site_id, least: Robot.objects.filter(site_id=site_id, battery__gte=least).order_by(
+            "code"
+        ),
+        site_id=int,
+        least=float,
+    )
+
+    for least in (0.1, 0.5, 0.79, 0.9):
+        orm = Robot.objects.filter(site_id=site.pk, battery__gte=least).order_by("code")
+        found = charged.all(site_id=site.pk, least=least)
+        assert [r.code for r in found] == [r.code for r in orm]
+
+
 def test_a_statement_runs_through_the_connection_as_any_query(robot):
     board_post(robot=robot, type="action", body={"action": "pause"})
 

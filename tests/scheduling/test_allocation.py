@@ -11,6 +11,7 @@ from boards.models import BoardMessage
 from robots.models import Robot, Waypoint
 from robots.selectors import robots_for_allocation
 from scheduling.models import Task, TaskTransition
+from scheduling.selectors import robot_routes
 from scheduling.services import due_sweep, task_allocate
 from scheduling.services.allocation import NO_ROBOT, NO_ROUTE
 from tests import factories
@@ -259,3 +260,22 @@ def test_two_workers_never_plan_on_the_same_stale_route(r1, site):
     assert [message.body["plan_version"] for message in posted] == [1, 2]
     assert set(posted[-1].body["tasks"]) == {first.code, second.code}
     assert [message.withdraw_reason for message in posted] == ["superseded", ""]
+
+
+def test_routes_read_for_some_of_a_sites_robots_hold_their_tasks_only(r1, r2, site):
+    held = {}
+    for robot, dropoff in ((r1, "3F-WARD"), (r2, "2F-LAB")):
+        task = request(site, pickups=("1F-PHARM",), dropoffs=(dropoff,))
+        Task.objects.filter(pk=task.pk).update(status="acknowledged", robot=robot)
+        held[robot.code] = task
+    other = request(site, pickups=("2F-LAB",), dropoffs=("3F-WARD",))
+    Task.objects.filter(pk=other.pk).update(status="acknowledged", robot=r1)
+
+    alone = robot_routes(robots=[r1])  # one robot's statement
+    both = robot_routes(robots=[r1, r2], excluding=[other.pk])  # the site's, then filtered
+
+    assert set(alone) == {r1.pk}
+    assert [t.code for t in alone[r1.pk].route.tasks] == [held["R1"].code, other.code]
+    assert [t.code for t in both[r1.pk].route.tasks] == [held["R1"].code]
+    assert [t.code for t in both[r2.pk].route.tasks] == [held["R2"].code]
+    assert robot_routes(robots=[r2])[r2.pk].signature == both[r2.pk].signature
