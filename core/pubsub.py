@@ -7,17 +7,15 @@ outbox (core/outbox.py), off the request's thread, and a Redis that stalls costs
 most PUBLISH_TIMEOUT, without retries.
 """
 
-import functools
-
 import redis
 from asgiref.sync import async_to_sync
 from channels.layers import get_channel_layer
 from channels_redis.pubsub import RedisPubSubChannelLayer
 from django.conf import settings
-from redis.backoff import NoBackoff
-from redis.retry import Retry
 
-PUBLISH_TIMEOUT = 0.5  # seconds to connect, and to send a publish and read its answer
+from core.redisclient import TIMEOUT, redis_client
+
+PUBLISH_TIMEOUT = TIMEOUT  # seconds to connect, and to send a publish and read its answer
 
 
 def group_send(group: str, message: dict) -> None:
@@ -49,13 +47,5 @@ def _layer_prefix() -> str:
     return settings.CHANNEL_LAYERS["default"].get("CONFIG", {}).get("prefix", "asgi")
 
 
-@functools.cache
 def _redis() -> redis.Redis:
-    # redis-py's pool notices a fork and opens new connections in the child.
-    hosts = settings.CHANNEL_LAYERS["default"]["CONFIG"]["hosts"]
-    return redis.Redis.from_url(
-        hosts[0],
-        socket_timeout=PUBLISH_TIMEOUT,
-        socket_connect_timeout=PUBLISH_TIMEOUT,
-        retry=Retry(NoBackoff(), 0),
-    )
+    return redis_client(settings.CHANNEL_LAYERS["default"]["CONFIG"]["hosts"][0])

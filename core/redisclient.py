@@ -1,6 +1,7 @@
-"""The server's own small keys in Redis (the sweeps' last runs, the allocation messages waiting
-per site): one client per process, with short timeouts and no retries, since every such key is
-a courtesy that a sweep or a timeout makes up for when Redis stalls."""
+"""Redis for the server's courtesies (the sweeps' last runs, the allocation messages waiting per
+site, the publishes of core/pubsub.py): one client per process and address, with short timeouts
+and no retries, since a sweep, a timeout or the next heartbeat makes up for whatever one of
+them fails to do when Redis stalls."""
 
 import functools
 
@@ -13,10 +14,11 @@ TIMEOUT = 0.5  # seconds to connect, and to send a command and read its answer
 
 
 @functools.cache
-def redis_client() -> redis.Redis:
+def redis_client(url: str | None = None) -> redis.Redis:
+    """The client of `url`, by default settings.REDIS_URL."""
     # redis-py's pool notices a fork and opens new connections in the child.
     return redis.Redis.from_url(
-        settings.REDIS_URL,
+        url or settings.REDIS_URL,
         socket_timeout=TIMEOUT,
         socket_connect_timeout=TIMEOUT,
         retry=Retry(NoBackoff(), 0),

@@ -1,6 +1,7 @@
 """Running a benchmark's quick mode the way CI does."""
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -27,3 +28,9 @@ def run_quick(script: str, *options: str, timeout: float = 300) -> str:
     output = finished.stdout + finished.stderr
     assert finished.returncode == 0, output
     return finished.stdout
+
+
+def cpu_samples(output: str, per: str) -> list[float]:
+    """The samples of a CPU benchmark's "CPU ms per <per>: ..." line."""
+    line = re.search(rf"CPU ms per {per}: ([\d. ]+)", output)
+    return [float(sample) for sample in line.group(1).split()]
