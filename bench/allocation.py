@@ -2,6 +2,7 @@
 
     python bench/allocation.py            # 10 and 50 robots holding 1..5 tasks each (minutes)
     python bench/allocation.py --quick    # small counts, seconds: what CI runs
+    python bench/allocation.py --burst    # only the last table: a burst, allocator alone
 
 For each fleet size and tasks held: the median and 90th-percentile time of allocate(); the
 median time of enumerating every ordering for every robot (the paper, Sec. 3.1.2) on some of
@@ -18,20 +19,23 @@ import gc
 import math
 import os
 import platform
+import random
 import statistics
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench.instances import Instance, random_instance
+from bench.instances import Instance, building, one_to_one, random_instance
 from scheduling.allocator import (
     TOLERANCE,
     Allocation,
+    RobotRoute,
     allocate,
+    allocate_for_delivery_time,
     best_plan,
     cheapest_insertion,
     enumerate_best_plan,
@@ -48,10 +52,13 @@ class Settings:
     instances: int
     enumerated: dict[int, int]  # tasks held -> instances also solved by brute force
     mixed_robots: int  # fleet size of the second table (mixed task kinds, no brute force)
+    burst: int  # tasks at once and robots of the last table
+    bursts: int  # seeded bursts
 
 
-FULL = Settings((10, 50), (1, 2, 3, 4, 5), 20, {1: 20, 2: 20, 3: 20, 4: 10, 5: 3}, 50)
-QUICK = Settings((3, 10), (1, 2, 3), 3, {1: 3, 2: 3, 3: 3}, 10)
+FULL = Settings((10, 50), (1, 2, 3, 4, 5), 20, {1: 20, 2: 20, 3: 20, 4: 10, 5: 3}, 50, 100, 5)
+QUICK = Settings((3, 10), (1, 2, 3), 3, {1: 3, 2: 3, 3: 3}, 10, 20, 2)
+BURST_CAPACITY = 4  # items a robot of the burst carries at once
 
 
 @dataclass
@@ -70,22 +77,30 @@ class Row:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small counts, for CI")
-    settings = QUICK if parser.parse_args(argv).quick else FULL
-    _print_header(settings)
+    parser.add_argument("--burst", action="store_true", help="only the burst table")
+    options = parser.parse_args(argv)
+    settings = QUICK if options.quick else FULL
+    _print_header(settings, burst_only=options.burst)
+    if options.burst:
+        _print_burst(settings)
+        return 0
     rows = _compare(settings)
     _print_table(rows)
     _print_mixed(settings)
     compared = sum(len(row.enumeration) for row in rows)
     agreed = sum(row.agreed for row in rows)
+    _print_burst(settings)
     print(f"\nagreement with enumeration: {agreed}/{compared} instances")
     return 0 if agreed == compared else 1
 
 
-def _print_header(settings: Settings) -> None:
+def _print_header(settings: Settings, *, burst_only: bool = False) -> None:
     now = datetime.datetime.now().astimezone().isoformat(timespec="seconds")
     print(f"allocation benchmark  {now}")
     print(f"Python {platform.python_version()} ({platform.python_implementation()})")
     print(f"machine: {platform.machine()}, {os.cpu_count()} CPUs, {platform.platform()}")
+    if burst_only:
+        return
     print(
         f"{settings.instances} seeded instances per row: a 4-floor building with lifts; "
         "one-to-one tasks, 40 % of held tasks already picked up; capacity 4-6."
@@ -220,6 +235,44 @@ def _print_mixed(settings: Settings) -> None:
             f"{held:>2} {_ms(statistics.median(seconds)):>9} {_ms(_p90(seconds)):>9} "
             f"{_ms(max(seconds)):>9}"
         )
+
+
+def _print_burst(settings: Settings) -> None:
+    count = settings.burst
+    print(
+        f"\na burst: {count} tasks at once, {count} robots empty at 4 docks (capacity "
+        f"{BURST_CAPACITY}), delivery_time, each task added to its robot's route; CPU ms:"
+    )
+    print(
+        f"{'seed':>4} {'total':>8} {'per task':>9} {'p90':>7} {'max':>7} {'robots':>7} {'most':>5}"
+    )
+    for seed in range(settings.bursts):
+        spent, routes = _burst(seed, count)
+        busy = [len(route.tasks) for route in routes if route.tasks]
+        print(
+            f"{seed:>4} {sum(spent) * 1000:>8.0f} {statistics.mean(spent) * 1000:>9.2f} "
+            f"{_p90(spent) * 1000:>7.2f} {max(spent) * 1000:>7.2f} {len(busy):>7} {max(busy):>5}"
+        )
+
+
+def _burst(seed: int, count: int) -> tuple[list[float], list[RobotRoute]]:
+    """The CPU seconds of each task's allocation, and the robots' routes at the end."""
+    rng = random.Random(f"burst-{seed}")
+    site = building(rng)
+    docks, stations = rng.sample(site.places, 4), rng.sample(site.places, 6)
+    robots = {
+        code: RobotRoute(code, docks[n % len(docks)], 0, BURST_CAPACITY, ())
+        for n, code in enumerate(f"R-{n:03d}" for n in range(count))
+    }
+    spent = []
+    for n in range(count):
+        task = one_to_one(f"T-{n:04d}", *rng.sample(stations, 2))
+        started = time.process_time()
+        chosen = allocate_for_delivery_time(task, list(robots.values()), site.travel_time)
+        spent.append(time.process_time() - started)
+        route = robots[chosen.robot]
+        robots[chosen.robot] = replace(route, tasks=(*route.tasks, task))
+    return spent, list(robots.values())
 
 
 def _mixed_instance(robots: int, held: int, n: int) -> Instance:

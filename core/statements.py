@@ -1,7 +1,8 @@
 """Statements of the hot paths (the heartbeat's; the webhook subscriptions every task status
 change looks up; a delivery request's token, site, and the stops and history of its answer;
-an allocation's lock, available robots, their routes' stops and the chosen robot's last plan),
-compiled once per process instead of once per call.
+an allocation's lock, available robots, their routes' stops and the chosen robot's last plan;
+an allocation batch's claim of each task and its tasks' ETAs), compiled once per process
+instead of once per call.
 
 Django builds a queryset's SQL again every time it is evaluated: the lookups are resolved, the
 joins set up, every column named and quoted. For the statements a heartbeat always runs (find
@@ -168,6 +169,86 @@ def _update_compile(model: type[Model], fields: Sequence[str]) -> tuple[str, lis
     assignments = ", ".join(f"{quote(field.column)} = %s" for field in concrete)
     sql = f"UPDATE {quote(meta.db_table)} SET {assignments} WHERE {quote(meta.pk.column)} = %s"
     _updates[(model, tuple(fields), connection.vendor)] = (sql, concrete)
+    return sql, concrete
+
+
+_claims: dict[tuple, tuple[str, list, list]] = {}
+
+
+def row_claim(instance: Model, fields: Sequence[str], **expected) -> bool:
+    """Write the instance's `fields` only if its row still holds the `expected` values (None:
+    NULL), as filter(pk=..., **expected).update(...) would, signals aside; whether it did.
+    Compiled once per model, fields, expected names and vendor: an allocation batch claims
+    every task it assigns this way."""
+    model = type(instance)
+    nulls = tuple((name, value is None) for name, value in expected.items())
+    key = (model, tuple(fields), nulls, connection.vendor)
+    sql, concrete, checked = _claims.get(key) or _claim_compile(key)
+    params = [
+        field.get_db_prep_save(field.pre_save(instance, False), connection) for field in concrete
+    ]
+    params.append(instance.pk)
+    params += [field.get_db_prep_value(expected[field.name], connection) for field in checked]
+    with _cursor() as cursor:
+        cursor.execute(sql, params)
+        return cursor.rowcount == 1
+
+
+def _claim_compile(key: tuple) -> tuple[str, list, list]:
+    model, fields, nulls, _vendor = key
+    sql, concrete = _update_compile(model, fields)
+    quote, meta = connection.ops.quote_name, model._meta
+    checked = [meta.get_field(name) for name, null in nulls if not null]
+    conditions = [f"{quote(field.column)} = %s" for field in checked]
+    conditions += [f"{quote(meta.get_field(name).column)} IS NULL" for name, null in nulls if null]
+    _claims[key] = (" AND ".join([sql, *conditions]), concrete, checked)
+    return _claims[key]
+
+
+def rows_update(objects: Sequence[Model], fields: Sequence[str]) -> None:
+    """bulk_update(objects, fields) of one model's objects, in one statement whatever their
+    number. On PostgreSQL the values go as one array per column (UPDATE ... FROM unnest), so
+    the statement is the same text for any count and its SQL is built once; elsewhere it is
+    Django's bulk_update (CASE WHEN per object, built each time)."""
+    if not objects:
+        return
+    model = type(objects[0])
+    if connection.vendor != "postgresql":
+        model._base_manager.bulk_update(objects, fields)
+        return
+    sql, concrete = _arrays_updates.get((model, tuple(fields))) or _arrays_compile(model, fields)
+    columns = [[obj.pk for obj in objects]]
+    for field in concrete:
+        columns.append(
+            [field.get_db_prep_save(getattr(obj, field.attname), connection) for obj in objects]
+        )
+    with _cursor() as cursor:
+        cursor.execute(sql, columns)
+
+
+_arrays_updates: dict[tuple, tuple[str, list]] = {}
+
+
+def _arrays_compile(model: type[Model], fields: Sequence[str]) -> tuple[str, list]:
+    meta, quote = model._meta, connection.ops.quote_name
+    concrete = [meta.get_field(name) for name in fields]
+    if any(not field.concrete or field.primary_key for field in concrete):
+        raise TypeError(f"rows_update writes concrete non-key fields only, not {fields}")
+    every = [meta.pk, *concrete]
+    arrays = ", ".join(
+        f"%s::{field.rel_db_type(connection) if field.primary_key else field.db_type(connection)}[]"
+        for field in every
+    )
+    names = ", ".join(f"c{n}" for n in range(len(every)))
+    assignments = ", ".join(
+        f"{quote(field.column)} = v.c{n}" for n, field in enumerate(concrete, 1)
+    )
+    table, pk = quote(meta.db_table), quote(meta.pk.column)
+    sql = (
+        f"UPDATE {table} SET {assignments} FROM unnest({arrays}) AS v({names}) "
+        f"WHERE {table}.{pk} = v.c0"
+    )
+    _arrays_updates[(model, tuple(fields))] = (sql, concrete)
     return sql, concrete
 
 

@@ -25,7 +25,7 @@ import sys
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields
 from functools import cached_property, lru_cache
 from operator import sub
 
@@ -70,6 +70,24 @@ class RobotRoute:
     pace: float = 1.0  # its travel times over travel_time's, for when tasks are done
     lockable: int = 0  # lockable compartments: secure items on board at once, at most
     secure_load: int = 0  # secure items on board now (counted in `load` too)
+
+    @cached_property
+    def nameless(self) -> RobotRoute:
+        """The route without the robot's code: robots alike share it (_distinct, _held_plan).
+        Kept, with its hash, as a batch offers each of its tasks to the same routes again."""
+        values = {field.name: getattr(self, field.name) for field in fields(self)}
+        return _NamelessRoute(**{**values, "robot": ""})
+
+
+class _NamelessRoute(RobotRoute):
+    """A RobotRoute whose hash is computed once (a tuple of tasks of stops: costly to hash)."""
+
+    @cached_property
+    def _hash(self) -> int:
+        return super().__hash__()
+
+    def __hash__(self) -> int:
+        return self._hash
 
 
 @dataclass(frozen=True)
@@ -163,7 +181,7 @@ def _by_delivery_time(task, robots, travel_time, waiting_weight: float, *, prune
     robots = _distinct(robots)
     nearest = {robot.robot: _earliest_done(task, robot, travel) for robot in robots}
     for robot in sorted(robots, key=lambda robot: (nearest[robot.robot], robot.robot)):
-        base = _held_plan(replace(robot, robot=""), travel_time)
+        base = _held_plan(robot.nameless, travel_time)
         if not base:
             continue
         least = waiting_weight * task.weight * nearest[robot.robot]
@@ -262,7 +280,7 @@ def _distinct(robots: Iterable[RobotRoute]) -> list[RobotRoute]:
     smallest code. A burst offers each task to every robot; most stand empty at a few docks."""
     seen, distinct = set(), []
     for robot in sorted(robots, key=lambda robot: robot.robot):
-        if (route := replace(robot, robot="")) not in seen:
+        if (route := robot.nameless) not in seen:
             seen.add(route)
             distinct.append(robot)
     return distinct

@@ -21,7 +21,7 @@ from django.db import transaction
 from django.db.models import Case, IntegerField, Value, When
 from django.utils import timezone
 
-from core.statements import Statement
+from core.statements import Statement, row_claim
 from robots.mapcache import router_for
 from robots.models import Robot, Site
 from robots.selectors import robots_for_allocation
@@ -39,7 +39,7 @@ from scheduling.metrics import ALLOCATION_SECONDS
 from scheduling.models import AllocationLock, Task, TaskStop
 from scheduling.selectors import HeldRoute, robot_route, robot_routes, task_stops
 from scheduling.services.charging import robot_can_finish
-from scheduling.services.etas import deadline_alert, task_deadline_check
+from scheduling.services.etas import deadline_alert, etas_write, task_deadline_check
 from scheduling.services.history import allocation_enqueue, task_record, tasks_record
 from scheduling.services.plans import plan_post
 
@@ -204,13 +204,15 @@ class _Batch:
     def _claim(self, task: Task, new: TaskStops, choice) -> bool:
         robot = self.locked[choice.robot_id]
         ack_due_at = self.now + timedelta(seconds=self.site.ack_timeout)
-        fields = {"robot": robot, "assigned_at": self.now, "ack_due_at": ack_due_at}
-        claimed = Task.objects.filter(pk=task.pk, status=TaskStatus.DUE, robot__isnull=True)
-        if not claimed.update(status=TaskStatus.ASSIGNED, waiting_reason="", **fields):
-            return False  # cancelled meanwhile
-        for name, value in {**fields, "waiting_reason": ""}.items():
+        claimed = {"robot": robot, "assigned_at": self.now, "ack_due_at": ack_due_at}
+        claimed |= {"status": TaskStatus.ASSIGNED, "waiting_reason": ""}
+        was = {name: getattr(task, name) for name in claimed}
+        for name, value in claimed.items():
             setattr(task, name, value)
-        task.status = TaskStatus.ASSIGNED
+        if not row_claim(task, list(claimed), status=TaskStatus.DUE, robot=None):
+            for name, value in was.items():  # cancelled meanwhile
+                setattr(task, name, value)
+            return False
         held = self.routes[choice.robot_id]
         route = replace(held.route, tasks=(*held.route.tasks, new))
         self.routes[choice.robot_id] = replace(
@@ -254,7 +256,9 @@ class _Batch:
 
     def post(self) -> None:
         """One plan per robot given tasks, then each task's history and deadline check; the
-        robots are woken when the batch commits (plan_post)."""
+        robots are woken when the batch commits (plan_post); the tasks' ETAs are written in one
+        statement."""
+        etas_changed: list[Task] = []
         for robot_id, stops in self.stops.items():
             robot, held = self.locked[robot_id], self.routes[robot_id]
             # Woken on commit: woken at once, each robot's heartbeat would hold a web worker
@@ -266,7 +270,9 @@ class _Batch:
                 tasks=held.tasks,
                 now=self.now,
                 wake_at_once=False,
+                etas_changed=etas_changed,
             )
+        etas_write(etas_changed)
         tasks_record(self.assigned, old=TaskStatus.DUE, at=self.now, cause=Cause.ALLOCATION)
         for task, robot in self.assigned:
             task_deadline_check(task=task, robot=robot)

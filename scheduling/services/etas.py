@@ -29,6 +29,7 @@ from boards.choices import EventType
 from boards.models import RobotEvent
 from boards.services import AppliedHeartbeat
 from core import changes
+from core.statements import rows_update
 from resources.choices import HOLDING_LEASE_STATES
 from resources.leases import resource_wait_estimate
 from resources.models import Lease, Resource
@@ -109,6 +110,14 @@ def etas_store(tasks: dict[str, Task], times: Iterable[StopTime], now: datetime)
     """Each task's drop-off ETA (when its last stop is done) and pick-up ETA (when the robot
     reaches its first pick-up still to do; none once picked up). Returns the tasks whose ETAs
     changed."""
+    changed = etas_set(tasks, times, now)
+    etas_write(changed)
+    return changed
+
+
+def etas_set(tasks: dict[str, Task], times: Iterable[StopTime], now: datetime) -> list[Task]:
+    """etas_store's ETAs, set on the tasks but not written (etas_write); the tasks whose ETAs
+    changed."""
     done, pickup = {}, {}
     for time in times:
         done[time.stop.task] = time.done
@@ -122,9 +131,13 @@ def etas_store(tasks: dict[str, Task], times: Iterable[StopTime], now: datetime)
         task.pickup_eta = _at(now, pickup[code]) if code in pickup else None
         if (task.eta, task.pickup_eta) != before:
             changed.append(task)
-    if changed:  # else no query
-        Task.objects.bulk_update(changed, ["eta", "pickup_eta"])
     return changed
+
+
+def etas_write(tasks: list[Task]) -> None:
+    """Write the tasks' ETAs, in one statement on PostgreSQL however many (rows_update); no
+    query for none."""
+    rows_update(tasks, ["eta", "pickup_eta"])
 
 
 def _at(now: datetime, seconds: float) -> datetime | None:

@@ -21,7 +21,7 @@ from scheduling.allocator import Stop, best_plan
 from scheduling.choices import PRIORITY_ON_THE_WIRE, StopAction
 from scheduling.models import RobotPlan, Task
 from scheduling.selectors import HeldRoute, robot_pace, robot_route
-from scheduling.services.etas import etas_store, stop_times
+from scheduling.services.etas import etas_set, etas_store, stop_times
 
 logger = logging.getLogger(__name__)
 
@@ -36,10 +36,12 @@ def plan_post(
     tasks: dict[str, Task],
     now: datetime,
     wake_at_once: bool = True,
+    etas_changed: list[Task] | None = None,
 ) -> RobotPlan:
     """Post `stops` as the robot's plan, superseding any unacked plan; store the tasks' ETAs
     (by the robot's learned pace and dwell; the lease queues join them as it makes progress,
-    scheduling.services.etas).
+    scheduling.services.etas), or only set them and add the tasks whose ETAs changed to
+    `etas_changed`, for a batch to write them all at once (etas_write).
 
     The robot is woken at once (its heartbeat waits for the commit), or with `wake_at_once`
     false once the transaction commits: for a batch that posts many plans, whose woken
@@ -49,7 +51,11 @@ def plan_post(
     on_route = {code: _task_wire(tasks[code]) for code in dict.fromkeys(s.task for s in stops)}
     plan = _post(robot, wire, on_route, now, wake_at_once)  # first: the robot travels meanwhile
     pace, dwell = robot_pace(robot)
-    etas_store(tasks, stop_times(router, start, stops, pace=pace, dwell=dwell), now)
+    times = stop_times(router, start, stops, pace=pace, dwell=dwell)
+    if etas_changed is None:
+        etas_store(tasks, times, now)
+    else:
+        etas_changed += etas_set(tasks, times, now)
     return plan
 
 

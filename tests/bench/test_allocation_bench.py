@@ -8,7 +8,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def test_it_runs_the_quick_benchmark_and_agrees_with_enumeration():
+def test_it_runs_the_quick_benchmark_and_agrees_with_enumeration_and_allocates_a_burst():
     finished = subprocess.run(
         [sys.executable, "bench/allocation.py", "--quick"],
         cwd=ROOT,
@@ -26,3 +26,14 @@ def test_it_runs_the_quick_benchmark_and_agrees_with_enumeration():
     rows = re.findall(r"^\s+\d+\s+\d\s.*\s(\d+)/(\d+)\s", finished.stdout, re.MULTILINE)
     assert rows
     assert all(agreed == compared for agreed, compared in rows)
+
+    burst = finished.stdout.split("a burst: 20 tasks at once, 20 robots", 1)[1]
+    lines = re.findall(
+        r"^\s+(\d+)\s+(\d+)\s+([\d.]+)\s+[\d.]+\s+[\d.]+\s+(\d+)\s+(\d+)$", burst, re.M
+    )
+    assert [seed for seed, *_ in lines] == ["0", "1"]
+    for _, _total, per_task, robots, most in lines:
+        assert float(per_task) > 0
+        assert 1 <= int(robots) <= 20
+        # The 20 tasks on `robots` robots: at least this many on one of them.
+        assert -(-20 // int(robots)) <= int(most) <= 20

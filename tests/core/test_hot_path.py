@@ -11,7 +11,7 @@ from django.utils import timezone
 
 from boards.serializers import HeartbeatSerializer
 from boards.services import board_pending, board_post
-from core.statements import Statement, row_update
+from core.statements import Statement, row_claim, row_update, rows_update
 from robots.mapcache import site_map
 from robots.models import Robot
 from robots.services import robot_authenticate
@@ -168,3 +168,41 @@ def test_prepared_statements_can_be_turned_off_for_a_connection_pooler(robot, se
     assert [m.body for m in board_pending(robot=robot)] == [{"action": "pause"}]
 
     assert _prepared_statements() == before
+
+
+def test_a_claim_writes_only_while_the_row_holds_what_it_expects(robot):
+    other = copy.copy(robot)
+    robot.battery, robot.errors = 0.42, ["E-STOP"]
+
+    assert row_claim(robot, ["battery", "errors"], code=robot.code, dock=None) is False  # a dock
+    assert row_claim(robot, ["battery", "errors"], code="R-ELSE") is False
+    assert Robot.objects.get(pk=robot.pk).battery != 0.42
+    assert row_claim(robot, ["battery", "errors"], code=robot.code) is True
+
+    stored = Robot.objects.get(pk=robot.pk)
+    assert (stored.battery, stored.errors) == (0.42, ["E-STOP"])
+    other.battery = 0.9  # expects the code it had: still true, so it writes too
+    assert row_claim(other, ["battery"], code=robot.code) is True
+    assert Robot.objects.get(pk=robot.pk).battery == 0.9
+
+
+def test_rows_update_writes_what_bulk_update_would_in_one_statement(site):
+    robots = [factories.robot_create(site, f"R{n}") for n in range(1, 4)]
+    now = timezone.now()
+    for n, robot in enumerate(robots):
+        robot.battery, robot.last_seen_at, robot.errors = n / 10, now if n else None, [f"E{n}"]
+        robot.name = "not written"
+
+    with CaptureQueriesContext(connection) as queries:
+        rows_update(robots[:2], ["battery", "last_seen_at", "errors"])
+        rows_update([], ["battery"])
+
+    assert len(queries.captured_queries) == 1
+    stored = {r.code: r for r in Robot.objects.all()}
+    assert [(stored[r.code].battery, stored[r.code].last_seen_at) for r in robots[:2]] == [
+        (0.0, None),
+        (0.1, now),
+    ]
+    assert [stored[r.code].errors for r in robots[:2]] == [["E0"], ["E1"]]
+    assert stored["R3"].battery != 0.2  # not among those written
+    assert "not written" not in {r.name for r in stored.values()}

@@ -156,3 +156,29 @@ def test_a_site_has_one_allocation_message_on_its_way_until_the_worker_takes_it(
     with django_capture_on_commit_callbacks(execute=True):
         third = request(site, receiver="Dr Kim")
     assert [task for task, _ in sent] == [first.pk, third.pk]  # the site's key was freed
+
+
+def test_a_task_cancelled_while_the_batch_chose_is_left_out_and_the_rest_assigned(
+    r1, r2, site, monkeypatch
+):
+    tasks = [request(site, receiver=f"Nurse {n}") for n in range(3)]
+    choose = allocation._choose
+
+    def cancelling_the_second(new, task, routes, travel_time):
+        if task.pk == tasks[1].pk:  # a nurse cancels it between the batch's read and its claim
+            Task.objects.filter(pk=task.pk).update(status="cancelled")
+        return choose(new, task, routes, travel_time)
+
+    monkeypatch.setattr(allocation, "_choose", cancelling_the_second)
+
+    assert site_allocate_due(site_id=site.pk) == 2
+
+    cancelled = Task.objects.get(pk=tasks[1].pk)
+    assert (cancelled.status, cancelled.robot_id, cancelled.assigned_at) == (
+        "cancelled",
+        None,
+        None,
+    )
+    planned = {stop["task"] for r in (r1, r2) for p in pending_plans(r) for stop in p.body["stops"]}
+    assert planned == {tasks[0].code, tasks[2].code}
+    assert not TaskTransition.objects.filter(task_id=tasks[1].pk, cause="allocation").exists()
