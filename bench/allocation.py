@@ -260,10 +260,8 @@ def _burst(seed: int, count: int) -> tuple[list[float], list[RobotRoute]]:
     rng = random.Random(f"burst-{seed}")
     site = building(rng)
     docks, stations = rng.sample(site.places, 4), rng.sample(site.places, 6)
-    robots = {
-        code: RobotRoute(code, docks[n % len(docks)], 0, BURST_CAPACITY, ())
-        for n, code in enumerate(f"R-{n:03d}" for n in range(count))
-    }
+    empty = [RobotRoute(f"R-{n:03d}", docks[n % 4], 0, BURST_CAPACITY, ()) for n in range(count)]
+    robots = {route.robot: route for route in empty}
     spent = []
     for n in range(count):
         task = one_to_one(f"T-{n:04d}", *rng.sample(stations, 2))

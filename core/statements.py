@@ -163,13 +163,19 @@ def row_update(instance: Model, fields: Sequence[str]) -> None:
 
 def _update_compile(model: type[Model], fields: Sequence[str]) -> tuple[str, list]:
     meta, quote = model._meta, connection.ops.quote_name
-    concrete = [meta.get_field(name) for name in fields]
-    if any(not field.concrete or field.primary_key for field in concrete):
-        raise TypeError(f"row_update writes concrete non-key fields only, not {fields}")
+    concrete = _written_fields(model, fields, "row_update")
     assignments = ", ".join(f"{quote(field.column)} = %s" for field in concrete)
     sql = f"UPDATE {quote(meta.db_table)} SET {assignments} WHERE {quote(meta.pk.column)} = %s"
     _updates[(model, tuple(fields), connection.vendor)] = (sql, concrete)
     return sql, concrete
+
+
+def _written_fields(model: type[Model], fields: Sequence[str], writer: str) -> list:
+    """The model's fields by name; TypeError unless each is a concrete non-key field."""
+    concrete = [model._meta.get_field(name) for name in fields]
+    if any(not field.concrete or field.primary_key for field in concrete):
+        raise TypeError(f"{writer} writes concrete non-key fields only, not {fields}")
+    return concrete
 
 
 _claims: dict[tuple, tuple[str, list, list]] = {}
@@ -231,9 +237,7 @@ _arrays_updates: dict[tuple, tuple[str, list]] = {}
 
 def _arrays_compile(model: type[Model], fields: Sequence[str]) -> tuple[str, list]:
     meta, quote = model._meta, connection.ops.quote_name
-    concrete = [meta.get_field(name) for name in fields]
-    if any(not field.concrete or field.primary_key for field in concrete):
-        raise TypeError(f"rows_update writes concrete non-key fields only, not {fields}")
+    concrete = _written_fields(model, fields, "rows_update")
     every = [meta.pk, *concrete]
     arrays = ", ".join(
         f"%s::{field.rel_db_type(connection) if field.primary_key else field.db_type(connection)}[]"
