@@ -306,7 +306,7 @@ def _run(stack: Stack, sessions, robots: list[BenchRobot], rng, outcome: Outcome
     _server_times(codes)
     outcome.samples += [s for s in codes.values() if s.received is not None]
     outcome.lost += sum(s.received is None for s in codes.values())
-    _wait(lambda: _all_finished(codes), 60, "the run's tasks completed")
+    _wait(lambda: _all_finished(codes), 60, "the run's tasks completed", _unfinished, codes)
     # Start the next run at a random moment of the robots' heartbeat cycle: runs that followed
     # each other at once would fall at the same phase every time.
     time.sleep(0.2 + rng.random())
@@ -347,11 +347,22 @@ def _all_finished(samples: dict[str, Sample]) -> bool:
     return not Task.objects.filter(pk__in=pks).exclude(status="completed").exists()
 
 
-def _wait(check, timeout: float, what: str) -> None:
+def _unfinished(samples: dict[str, Sample]) -> str:
+    """The run's tasks not completed: code, status and robot, for the timeout's message."""
+    from scheduling.models import Task
+
+    pks = [int(code[2:]) for code in samples]
+    left = Task.objects.filter(pk__in=pks).exclude(status="completed").select_related("robot")
+    return ", ".join(f"{t.code} {t.status} {t.robot and t.robot.code}" for t in left)
+
+
+def _wait(check, timeout: float, what: str, explain=None, *args) -> None:
+    """Poll `check` until it holds; past the timeout, raise, with explain(*args) if given."""
     deadline = time.monotonic() + timeout
     while not check():
         if time.monotonic() > deadline:
-            raise TimeoutError(f"{what}: not within {timeout} s")
+            detail = f" ({explain(*args)})" if explain else ""
+            raise TimeoutError(f"{what}: not within {timeout} s{detail}")
         time.sleep(0.02)
 
 

@@ -5,9 +5,9 @@ route is solved exactly by dynamic programming over (stops done, last stop): Hel
 precedence and capacity decide which stops may come next. Offering a task to a robot solves its
 route without the task backwards, which gives the exact least travel left from every state, then
 solves the route with the task forwards, dropping every state that cannot beat the best offer so
-far. Across robots, a cheap lower bound on each robot's added travel skips robots that cannot win.
-Routes of more than EXACT_TASK_LIMIT tasks are planned by insertion and local search instead and
-are marked inexact.
+far (or, before there is one, the task inserted into the held route). Across robots, a cheap
+lower bound on each robot's added travel skips robots that cannot win. Routes of more than
+EXACT_TASK_LIMIT tasks are planned by insertion and local search instead and are marked inexact.
 
 Deadlines: a task may carry a due time and a weight (its priority). A route is then chosen by
 its weighted lateness first, then its travel plus the extra weight of the hurried tasks' drop-off
@@ -57,6 +57,12 @@ class TaskStops:
     dropoffs: tuple[Stop, ...]
     due: float = math.inf
     weight: float = 1.0
+
+    @cached_property
+    def shape(self) -> tuple:
+        """Its stops' places and load changes, without its code (_shape); kept, as a batch
+        looks a route's orders up for task after task."""
+        return _stops_shape(self.pickups), _stops_shape(self.dropoffs)
 
 
 @dataclass(frozen=True)
@@ -185,9 +191,10 @@ def _by_delivery_time(task, robots, travel_time, waiting_weight: float, *, prune
         if not base:
             continue
         least = waiting_weight * task.weight * nearest[robot.robot]
-        if prune and best and _cannot_win(best[0], least, robot, base, travel):
+        limit = _winning_cost(best[0], least, robot, base, travel) if prune and best else math.inf
+        if limit < base.cost:
             continue
-        plan = _route(robot, (*robot.tasks, task), travel)
+        plan = _route(robot, (*robot.tasks, task), travel, limit=limit)
         if not plan or not math.isfinite(plan.cost):
             continue
         late, waiting = _delays(robot, base, plan, (*robot.tasks, task), task.code, travel)
@@ -214,19 +221,26 @@ def _earliest_done(task: TaskStops, robot: RobotRoute, travel: _Travel) -> float
     return robot.pace * farthest + robot.dwell * len(stops)
 
 
-def _cannot_win(best: tuple[int, float], least: float, robot: RobotRoute, base: Plan, travel):
-    """Whether the robot's offer is sure to lose to `best` without solving it: its held route
-    is exact, least-travel and on time (so the task adds no negative travel, delay or
-    lateness), and the best offer takes lateness away, or adds none and less than `least`, the
-    new task's own least weighted waiting with this robot."""
+def _winning_cost(best: tuple[int, float], least: float, robot, base: Plan, travel) -> float:
+    """The most the robot's least-travel route with the task may cost for its offer to beat
+    `best` (-inf: it cannot; inf: no bound known).
+
+    When its held route is exact, least-travel and on time, the task adds no negative travel,
+    delay or lateness: if the best offer takes lateness away, this one loses; if it adds none,
+    this one wins only with added travel + waiting within the best's, and its waiting is at
+    least `least`, the new task's own least weighted waiting with this robot. Any route the
+    robot may choose costs at least its least-travel one.
+    """
     if best[0] > 0 or len(robot.tasks) + 1 > EXACT_TASK_LIMIT:
-        return False
+        return math.inf
     if any(t.weight > 1.0 for t in robot.tasks):  # its route may be hurried, not least-travel
-        return False
+        return math.inf
     done = _done_at(robot, base, travel)
     if any(done.get(t.code, 0.0) > t.due for t in robot.tasks):  # late: it may be hurried
-        return False
-    return best[0] < 0 or least > best[1] + TOLERANCE
+        return math.inf
+    if best[0] < 0 or least > best[1] + TOLERANCE:
+        return -math.inf
+    return base.cost + best[1] - least + TOLERANCE
 
 
 def _delays(robot, base: Plan, plan: Plan, tasks, new: str, travel: _Travel):
@@ -271,7 +285,13 @@ def allocate_standby_first(
 def _held_plan(robot: RobotRoute, travel_time: TravelTime) -> Plan | None:
     """The robot's best route as it is (_route): the same for every task of a batch that does
     not go to it. By route, not by robot (`robot` is nameless): robots alike share it."""
-    return _route(robot, robot.tasks, _Travel(travel_time))
+    travel = _Travel(travel_time)
+    if (
+        BOUNDED_FROM <= len(robot.tasks) + 1 <= EXACT_TASK_LIMIT
+        and (travel_time, _shape(robot, robot.tasks)) not in _ORDERS
+    ):
+        _finishing(robot, robot.tasks, travel)  # solved backwards: it bounds the offers to come
+    return _route(robot, robot.tasks, travel)
 
 
 def _distinct(robots: Iterable[RobotRoute]) -> list[RobotRoute]:
@@ -297,10 +317,13 @@ def _done_at(robot: RobotRoute, plan: Plan, travel: _Travel) -> dict[str, float]
     return done
 
 
-def _route(robot: RobotRoute, tasks: tuple[TaskStops, ...], travel: _Travel) -> Plan | None:
+def _route(
+    robot: RobotRoute, tasks: tuple[TaskStops, ...], travel: _Travel, *, limit: float = math.inf
+) -> Plan | None:
     """The robot's best route (module docstring): least travel unless a deadline or a
-    priority's weight says otherwise."""
-    base = _plan(robot, tasks, travel)
+    priority's weight says otherwise. None if an exact least-travel route costs more than
+    `limit`: every route of these tasks costs at least that much."""
+    base = _plan(robot, tasks, travel, limit=limit)
     if base is None or len(tasks) > EXACT_TASK_LIMIT or len(tasks) < 2:
         return base
     done = _done_at(robot, base, travel)
@@ -435,16 +458,27 @@ def _heuristic_offer(task, robot, travel) -> Allocation | None:
     return plan and Allocation(robot.robot, plan, plan.cost - base.cost)
 
 
-def _plan(robot: RobotRoute, tasks: tuple[TaskStops, ...], travel: _Travel) -> Plan | None:
-    if len(tasks) <= EXACT_TASK_LIMIT:
-        found = _least_travel_order(robot, tasks, travel)
-        if found is None:
-            return None
-        stops = [stop for task in tasks for stop in (*task.pickups, *task.dropoffs)]
-        return Plan(tuple(stops[j] for j in found[1]), found[0], exact=True)
+def _plan(
+    robot: RobotRoute, tasks: tuple[TaskStops, ...], travel: _Travel, *, limit: float = math.inf
+) -> Plan | None:
+    found = _least_travel_order(robot, tasks, travel, limit=limit)
+    if found is None:
+        return None
+    stops = [stop for task in tasks for stop in (*task.pickups, *task.dropoffs)]
+    exact = len(tasks) <= EXACT_TASK_LIMIT
+    return Plan(tuple(stops[j] for j in found[1]), found[0], exact=exact)
+
+
+def _heuristic_order(robot: RobotRoute, tasks: tuple[TaskStops, ...], travel: _Travel):
+    """(cost, stop numbers in order) of the last task inserted into the route of the others,
+    then or-opt; None if that finds no feasible order."""
     earlier = _plan(robot, tasks[:-1], travel)
     plan = earlier and _inserted(robot, earlier.stops, tasks[-1], travel)
-    return plan and _improved(robot, plan, travel)
+    plan = plan and _improved(robot, plan, travel)
+    if plan is None:
+        return None
+    numbers = {stop: j for j, stop in enumerate(s for task in tasks for s in _stops(task))}
+    return plan.cost, tuple(numbers[stop] for stop in plan.stops)
 
 
 # Exact: Held-Karp with precedence and capacity.
@@ -456,29 +490,111 @@ def _plan(robot: RobotRoute, tasks: tuple[TaskStops, ...], travel: _Travel) -> P
 # tasks of a burst go between the same two stations (a ward's samples to the lab): half the
 # solves of a batch of 100 (bench/latency.py's burst) are then looked up, not solved again,
 # though the cheaper half (short routes): the batch's allocator CPU fell by about a tenth.
+# Beyond EXACT_TASK_LIMIT the order is the heuristic's, which depends on the shape alone too;
+# kept, a route of k tasks offered a new one inserts it into the kept route of the k, instead
+# of building that one again by inserting each task after the limit's first ones.
 # Cleared whole when full; keyed by the travel-time function too (one per site map version).
 _ORDERS: dict = {}
 ORDERS_KEPT = 20_000
 _UNSOLVED = object()
 
 
-def _least_travel_order(robot: RobotRoute, tasks: Sequence[TaskStops], travel: _Travel):
+def _least_travel_order(
+    robot: RobotRoute, tasks: Sequence[TaskStops], travel: _Travel, *, limit: float = math.inf
+):
     """(cost, stop numbers in order) of the least-travel route of the tasks' stops, numbered
-    as _problem numbers them; None if no order is feasible."""
+    as _problem numbers them (the heuristic's beyond EXACT_TASK_LIMIT tasks); None if no order
+    is feasible (or the heuristic finds none), or if the exact one costs more than `limit`."""
     key = (travel.travel_time, _shape(robot, tasks))
     found = _ORDERS.get(key, _UNSOLVED)
+    if isinstance(found, _Above):
+        if limit <= found.limit:
+            return None
+        found = _UNSOLVED
     if found is _UNSOLVED:
-        problem = _problem(robot, tasks, travel)
-        found = _held_karp(problem, math.inf, _least_arrivals(problem))
-        found = found and (found[0], tuple(found[1]))
-        if len(_ORDERS) >= ORDERS_KEPT:
-            _ORDERS.clear()
-        _ORDERS[key] = found
+        if len(tasks) <= EXACT_TASK_LIMIT:
+            found = _exact_order(robot, tasks, travel, limit)
+        else:
+            found = _heuristic_order(robot, tasks, travel)
+        _order_keep(travel, key[1], _Above(limit) if found is None and limit < math.inf else found)
+    return found
+
+
+def _order_keep(travel: _Travel, shape: tuple, found, *, solved_otherwise: bool = False) -> None:
+    """Keep an order found. With solved_otherwise (the backward solve's order), only where no
+    order is kept: one already handed out stays, as equal-cost orders may do tasks at other
+    times."""
+    key = (travel.travel_time, shape)
+    kept = _ORDERS.get(key, _UNSOLVED)
+    if solved_otherwise and kept is not _UNSOLVED and not isinstance(kept, _Above):
+        return
+    if len(_ORDERS) >= ORDERS_KEPT:
+        _ORDERS.clear()
+    _ORDERS[key] = found
+
+
+@dataclass(frozen=True)
+class _Above:
+    """Kept for a route whose exact least travel is known to be more than `limit` (or none)."""
+
+    limit: float
+
+
+# A route of BOUNDED_FROM tasks or more whose last task is all to be picked up (a new task
+# offered) is solved as allocate() solves an offer: the route without that task, solved
+# backwards once and kept by shape (_FINISHING), bounds the forward search from below, and the
+# search keeps only states that can come in under both the task inserted into that route and
+# `limit`, what the route may cost for the robot to beat the best offer so far
+# (_winning_cost). A batch offers task after task to the same routes: in bench/allocation.py's
+# burst this cut the allocator's CPU by two fifths. With fewer tasks the backward solve costs
+# more than it saves: offers to 10 or 50 robots holding 3 tasks each took a fifth longer
+# bounded from 4 tasks (bench/allocation.py --rule), and equal with 4 held.
+BOUNDED_FROM = 5
+
+
+def _exact_order(robot: RobotRoute, tasks: Sequence[TaskStops], travel: _Travel, limit: float):
+    """(cost, stop numbers in order) of the least-travel route, if it costs at most `limit`."""
+    problem = _problem(robot, tasks, travel)
+    if len(tasks) < BOUNDED_FROM or travel.saw_infinity or not _all_picked_up(tasks[-1]):
+        found = _held_karp(problem, limit, _least_arrivals(problem))
+        return found and (found[0], tuple(found[1]))
+    held = len(problem.stops) - len(_stops(tasks[-1]))
+    base = _finishing(robot, tasks[:-1], travel)
+    if base.cost is None:
+        return None
+    order = [problem.stops[j] for j in base.order()]  # base may be another robot's, alike
+    inserted = _inserted(robot, order, tasks[-1], travel)
+    limit = min(limit, inserted.cost if inserted else math.inf)
+    found = _held_karp(problem, limit, _savings(problem, held), base.tail(problem.times))
+    return found and (found[0], tuple(found[1]))
+
+
+def _all_picked_up(task: TaskStops) -> bool:
+    """Whether the route picks up every item the task drops off (none is on board yet): then
+    the route without the task is the robot's route of the other tasks, which bounds it."""
+    picked = sum(stop.load_change for stop in task.pickups)
+    return picked == -sum(stop.load_change for stop in task.dropoffs)
+
+
+_FINISHING: dict = {}
+FINISHING_KEPT = 512
+
+
+def _finishing(robot: RobotRoute, tasks: Sequence[TaskStops], travel: _Travel) -> _Finishing:
+    shape = _shape(robot, tasks)
+    found = _FINISHING.get((travel.travel_time, shape))
+    if found is None:
+        found = _Finishing(_problem(robot, tasks, travel))
+        if len(_FINISHING) >= FINISHING_KEPT:
+            _FINISHING.clear()
+        _FINISHING[travel.travel_time, shape] = found
+        order = None if found.cost is None else (found.cost, found.order())
+        _order_keep(travel, shape, order, solved_otherwise=True)
     return found
 
 
 def _shape(robot: RobotRoute, tasks: Sequence[TaskStops]) -> tuple:
-    shapes = tuple((_stops_shape(task.pickups), _stops_shape(task.dropoffs)) for task in tasks)
+    shapes = tuple(task.shape for task in tasks)
     return robot.start, robot.load, robot.capacity, robot.lockable, robot.secure_load, shapes
 
 
@@ -689,13 +805,13 @@ class _Finishing:
         cost = self.finish.get(0, {}).get(0, math.inf)
         return cost if cost < math.inf else None
 
-    def order(self) -> list[int]:
+    def order(self) -> tuple[int, ...]:
         done, point, order = 0, 0, []
         while done != self.full:
             point = _cheapest_choice(self.choices[done], self.problem.times[point])
             order.append(point - 1)
             done |= 1 << (point - 1)
-        return order
+        return tuple(order)
 
     def tail(self, times: list[list[float]]) -> Callable[[int, int], float]:
         """tail(done, point) for a longer route whose first stops are these, with `times`."""

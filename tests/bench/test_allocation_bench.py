@@ -8,7 +8,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def test_it_runs_the_quick_benchmark_and_agrees_with_enumeration_and_allocates_a_burst():
+def test_the_quick_benchmark_agrees_with_enumeration_and_times_the_default_rule_and_a_burst():
     finished = subprocess.run(
         [sys.executable, "bench/allocation.py", "--quick"],
         cwd=ROOT,
@@ -26,6 +26,13 @@ def test_it_runs_the_quick_benchmark_and_agrees_with_enumeration_and_allocates_a
     rows = re.findall(r"^\s+\d+\s+\d\s.*\s(\d+)/(\d+)\s", finished.stdout, re.MULTILINE)
     assert rows
     assert all(agreed == compared for agreed, compared in rows)
+
+    rule = finished.stdout.split("the default rule (delivery_time)", 1)[1].split("a burst:")[0]
+    timed = re.findall(r"^\s+(\d+)\s+(\d)\s+([\d.]+)ms\s+([\d.]+)ms$", rule, re.MULTILINE)
+    assert [(robots, held) for robots, held, *_ in timed] == [
+        (robots, held) for robots in ("3", "10") for held in ("1", "2", "3")
+    ]
+    assert all(0 < float(median) <= float(p90) for *_, median, p90 in timed)
 
     burst = finished.stdout.split("a burst: 20 tasks at once, 20 robots", 1)[1]
     lines = re.findall(

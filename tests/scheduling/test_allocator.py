@@ -375,7 +375,7 @@ def test_by_delivery_time_robots_skipped_unsolved_could_not_have_won(seed):
     # Against solving every robot: the same robot and route on random hospitals whose tasks
     # carry due times and priorities' weights, some robots late, some idle, some paced.
     rng = random.Random(seed)
-    instance = random_instance(seed, robots=8, held=(0, 3), capacity=(3, 6), on_board=0.4)
+    instance = random_instance(seed, robots=8, held=(0, 4), capacity=(3, 6), on_board=0.4)
     fleet = [_with_deadlines(rng, robot) for robot in instance.robots]
     task = replace(instance.task, **_deadline(rng))
     times = instance.travel_time
@@ -403,7 +403,7 @@ def test_by_delivery_time_the_nearest_robot_on_time_spares_solving_far_ones(monk
     solved = set()
     route = allocator._route
     monkeypatch.setattr(
-        allocator, "_route", lambda robot, *a: solved.add(robot.robot) or route(robot, *a)
+        allocator, "_route", lambda robot, *a, **k: solved.add(robot.robot) or route(robot, *a, **k)
     )
     near = RobotRoute("R-02", start="500", load=0, capacity=4, tasks=())
     far = _carrying_to("9000", "9500", code="R-01")
@@ -421,7 +421,7 @@ def test_of_robots_alike_one_is_solved_for_all_and_the_smallest_code_wins(rule, 
     solved = set()
     plan = allocator._plan
     monkeypatch.setattr(
-        allocator, "_plan", lambda robot, *a: solved.add(robot.robot) or plan(robot, *a)
+        allocator, "_plan", lambda robot, *a, **k: solved.add(robot.robot) or plan(robot, *a, **k)
     )
     alike = [RobotRoute(f"R-{n:02d}", start="500", load=0, capacity=4, tasks=()) for n in (9, 3, 7)]
     farther = RobotRoute("R-01", start="900", load=0, capacity=4, tasks=())
@@ -562,3 +562,58 @@ def test_a_task_shaped_like_one_already_solved_for_a_robot_reuses_its_order_with
     other = best_plan(robot, _on_a_line, extra=one_to_one("T-0004", "600", "1700"))
     assert len(solves) > solved  # another drop-off: another problem, solved
     assert [s.place for s in other.stops] == ["600", "1000", "1700"]
+
+
+def _along_the_corridor(held: int) -> RobotRoute:
+    """A robot at "0" holding `held` tasks up the corridor, none picked up yet."""
+    tasks = tuple(
+        one_to_one(f"T-{n:04d}", str(100 * n), str(100 * n + 50)) for n in range(1, held + 1)
+    )
+    return RobotRoute("R-01", start="0", load=0, capacity=2, tasks=tasks)
+
+
+def _counted(monkeypatch, name: str) -> list:
+    calls, real = [], getattr(allocator, name)
+    monkeypatch.setattr(allocator, name, lambda *a, **k: calls.append(a) or real(*a, **k))
+    return calls
+
+
+def test_a_route_bounded_below_its_least_travel_is_refused_remembered_and_solved_when_allowed(
+    monkeypatch,
+):
+    # An offer that could only win under a cost is solved with that bound; a robot that cannot
+    # is refused, and remembered so that a lower bound later is refused without a solve.
+    monkeypatch.setattr(allocator, "_ORDERS", {})
+    monkeypatch.setattr(allocator, "_FINISHING", {})
+    robot, task = _along_the_corridor(4), one_to_one("T-0009", "1000", "20")
+    tasks, travel = (*robot.tasks, task), allocator._Travel(_on_a_line)
+    least = enumerate_best_plan(robot, _on_a_line, extra=task).cost
+    solves = _counted(monkeypatch, "_held_karp")
+
+    assert allocator._plan(robot, tasks, travel, limit=least - 1.0) is None
+    solved = len(solves)
+    assert allocator._plan(robot, tasks, travel, limit=least - 5.0) is None
+    assert len(solves) == solved  # known to cost more: not solved again
+    plan = allocator._plan(robot, tasks, travel, limit=least + 1.0)
+    assert len(solves) == solved + 1
+    assert plan.exact
+    assert plan.cost == pytest.approx(least, abs=SAME)
+    assert_valid_route(robot, plan, _on_a_line, task)
+
+
+def test_a_route_beyond_the_exact_limit_takes_a_new_task_into_its_kept_route(monkeypatch):
+    # The held route of EXACT_TASK_LIMIT + 2 tasks is built once (insertion after the exact
+    # first ones); each offer then inserts the new task into it, not every task past the limit.
+    monkeypatch.setattr(allocator, "_ORDERS", {})
+    robot = _along_the_corridor(EXACT_TASK_LIMIT + 2)
+    insertions = _counted(monkeypatch, "_inserted")
+    held = best_plan(robot, _on_a_line)
+
+    for n, place in enumerate(("250", "650", "900")):
+        task = one_to_one(f"T-01{n:02d}", place, "30")
+        before = len(insertions)
+        plan = best_plan(robot, _on_a_line, extra=task)
+        assert len(insertions) == before + 1
+        assert not plan.exact
+        assert plan.cost >= held.cost
+        assert_valid_route(robot, plan, _on_a_line, task)
