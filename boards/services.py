@@ -14,6 +14,7 @@ from django.utils import timezone
 from boards.hooks import heartbeat_applied
 from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.push import wake_now, wake_on_commit
+from core import memo
 from core.statements import Statement
 from robots.cadence import heartbeat_interval_told
 from robots.models import Robot
@@ -92,7 +93,8 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
         request_index=_index_of_each_id(heartbeat["requests"]),
         event_index=_index_of_each_id(heartbeat["events"]),
     )
-    heartbeat_applied(applied=applied)
+    with memo.scope():  # the receivers may move several tasks: their reads shared (core.memo)
+        heartbeat_applied(applied=applied)
     return HeartbeatReply(
         server_time=now,
         heartbeat_interval=interval,

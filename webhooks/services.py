@@ -17,7 +17,7 @@ import requests
 from django.db import transaction
 from django.utils import timezone
 
-from core import changes
+from core import changes, memo
 from core.statements import Statement
 from scheduling.models import TaskTransition
 from webhooks.choices import TASK_STATUS_CHANGED, DeliveryState
@@ -38,10 +38,11 @@ SWEEP_BATCH = 500
 def deliveries_for_change(*, kind: str, site_id: int, subject, **_) -> list[int]:
     """Store one delivery per interested subscription for a task's status change; returns
     their ids. Runs inside the transaction that made the change: one query when nobody
-    subscribes."""
+    subscribes, one per heartbeat or allocation batch (core.memo) however many tasks move."""
     if kind != changes.TASK or subject.old == subject.new:
         return []
-    wanted = [s for s in _ACTIVE.all(site_id=site_id) if s.wants(subject.new)]
+    active = memo.once(("webhooks.active", site_id), lambda: _ACTIVE.all(site_id=site_id))
+    wanted = [s for s in active if s.wants(subject.new)]
     if not wanted:
         return []
     payload = task_event_payload(subject)

@@ -21,6 +21,7 @@ from django.db import transaction
 from django.db.models import Case, IntegerField, Value, When
 from django.utils import timezone
 
+from core import memo
 from core.statements import Statement, row_claim
 from robots.mapcache import router_for
 from robots.models import Robot, Site
@@ -112,7 +113,7 @@ def site_allocate_due(*, site_id: int, now: datetime | None = None) -> int:
     nothing left.
     """
     now = now or timezone.now()
-    with transaction.atomic():
+    with transaction.atomic(), memo.scope():  # a batch's tasks share reads (core.memo)
         site = _allocation_lock(site_id)
         tasks = _due_tasks(site_id)
         if not tasks:

@@ -5,13 +5,16 @@ from datetime import timedelta
 
 import pytest
 from django.core.exceptions import ValidationError
-from django.db import transaction
+from django.db import connection, transaction
 from django.test import Client
+from django.test.utils import CaptureQueriesContext
 from django.utils import timezone
 
 from scheduling.models import TaskTransition
-from scheduling.services import task_allocate, task_cancel
+from scheduling.services import site_allocate_due, task_allocate, task_cancel
 from tests import factories
+from tests.factories import heartbeat_apply_now
+from tests.scheduling.conftest import event as task_event
 from tests.scheduling.conftest import request as task_request
 from tests.scheduling.conftest import robot_ready
 from tests.webhooks.conftest import subscribe
@@ -63,6 +66,48 @@ def test_it_sends_only_the_statuses_asked_for_and_nothing_to_inactive_subscripti
     [delivery] = WebhookDelivery.objects.all()
     assert delivery.subscription == cancelled
     assert delivery.payload["task"]["status"] == "cancelled"
+
+
+def test_a_batch_reads_the_subscriptions_once_and_tells_each_change_to_each_of_them(site, sent):
+    # A burst's batch moves every task it assigns: one read of the site's subscriptions for
+    # all of them (core.memo), not one per task; and nothing kept past the batch.
+    first = subscribe(site, "http://127.0.0.1:9/a")
+    for code in ("R1", "R2", "R3"):
+        robot_ready(factories.robot_create(site, code))
+    tasks = [task_request(site) for _ in range(3)]
+
+    with CaptureQueriesContext(connection) as queries:
+        assert site_allocate_due(site_id=site.pk) == 3
+
+    reads = [q for q in queries.captured_queries if '"webhooks_subscription"' in q["sql"]]
+    assert len(reads) == 1
+    assigned = WebhookDelivery.objects.filter(payload__task__status="assigned")
+    assert sorted(d.payload["task"]["code"] for d in assigned) == sorted(t.code for t in tasks)
+    second = subscribe(site, "http://127.0.0.1:9/b")
+    task_cancel(task=tasks[0], by=factories.staff_create())
+    cancelled = WebhookDelivery.objects.filter(payload__task__status="cancelled")
+    assert {d.subscription for d in cancelled} == {first, second}
+
+
+def test_a_heartbeat_reporting_a_delivery_reads_the_subscriptions_once(site, sent):
+    subscribe(site, "http://127.0.0.1:9/a")
+    robot = factories.robot_create(site, "R1")
+    robot_ready(robot)
+    task = task_request(site)
+    task_allocate(task_id=task.pk)
+    events = [
+        task_event("loaded", task.code, 0),
+        task_event("unloaded", task.code, 1),
+        task_event("task_completed", task.code),
+    ]
+
+    with CaptureQueriesContext(connection) as queries:
+        heartbeat_apply_now(robot, now=timezone.now(), events=events)
+
+    reads = [q for q in queries.captured_queries if '"webhooks_subscription"' in q["sql"]]
+    assert len(reads) == 1
+    told = [d.payload["task"]["status"] for d in WebhookDelivery.objects.order_by("pk")]
+    assert told[-4:] == ["acknowledged", "picked_up", "delivered", "completed"]
 
 
 def test_it_refuses_unknown_statuses_naming_the_field(site):
