@@ -25,7 +25,7 @@ import sys
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from functools import cached_property, lru_cache
 from operator import sub
 
@@ -324,6 +324,7 @@ def _route(
     priority's weight says otherwise. None if an exact least-travel route costs more than
     `limit`: every route of these tasks costs at least that much."""
     base = _plan(robot, tasks, travel, limit=limit)
+    base = base and _soonest_due_first(base, tasks)
     if base is None or len(tasks) > EXACT_TASK_LIMIT or len(tasks) < 2:
         return base
     done = _done_at(robot, base, travel)
@@ -335,10 +336,39 @@ def _route(
         plan = _plan_first(robot, first, [t for t in tasks if t is not first], travel)
         if plan is None or not math.isfinite(plan.cost):
             continue
+        plan = _soonest_due_first(plan, tasks)
         key = _route_key(robot, plan, tasks, travel)
         if key[0] < best_key[0] or (key[0] == best_key[0] and key[1] < best_key[1] - TOLERANCE):
             best, best_key = plan, key
     return best
+
+
+def _soonest_due_first(plan: Plan, tasks: Sequence[TaskStops]) -> Plan:
+    """The plan with each run of drop-offs at one place in order of due time, then of weight.
+
+    A route's least travel does not say in which order to unload at one station, and the
+    search's order is arbitrary; with a dwell at each stop, it decides which delivery is
+    done first (a STAT sample unloaded after the routine ones at the lab). Unloading only
+    lowers the load, so any order of them keeps within capacity; the travel is the same.
+    """
+    urgency = {task.code: (task.due, -task.weight) for task in tasks}
+    stops = plan.stops
+    if len(set(urgency.values())) < 2:  # all alike: nothing to order them by
+        return plan
+    if not any(_same_drop_place(a, b) for a, b in zip(stops, stops[1:], strict=False)):
+        return plan
+    ordered, start = [], 0
+    while start < len(stops):
+        end = start + 1
+        while end < len(stops) and _same_drop_place(stops[start], stops[end]):
+            end += 1
+        ordered += sorted(stops[start:end], key=lambda stop: urgency[stop.task])  # stable
+        start = end
+    return replace(plan, stops=tuple(ordered))
+
+
+def _same_drop_place(first: Stop, other: Stop) -> bool:
+    return first.action == other.action == DROPOFF and first.place == other.place
 
 
 def _route_key(robot, plan: Plan, tasks, travel: _Travel) -> tuple[int, float]:

@@ -358,6 +358,21 @@ def test_a_deadline_puts_a_routine_task_first_when_it_would_be_late_otherwise():
     assert [stop.task for stop in plan.stops] == ["T-0002", "T-0002", "T-0001"]
 
 
+def test_at_one_station_the_soonest_due_is_unloaded_first():
+    # Two items on board for the same station: the same travel in either order, and a dwell
+    # at each stop; the one due sooner comes off first, whichever order the search found.
+    later, sooner = (
+        replace(one_to_one(code, "0", "1000"), pickups=(), due=due)
+        for code, due in (("T-0001", 1500.0), ("T-0002", 1100.0))
+    )
+    robot = RobotRoute("R-01", start="0", load=2, capacity=4, tasks=(later, sooner), dwell=20.0)
+
+    plan = best_plan(robot, _on_a_line)
+
+    assert [stop.task for stop in plan.stops] == ["T-0002", "T-0001"]
+    assert plan.cost == 1000.0
+
+
 def test_by_delivery_time_lateness_comes_first():
     # R-01 passes the task on its way and drops it off at 600 s, adding no travel; idle R-02
     # would add 400 s of travel and drop it off at 400 s. Due at 500 s, it is R-02's.

@@ -126,8 +126,10 @@ def test_past_the_unattended_timeout_the_robot_brings_the_items_back_locked(
     assert custody_words(moved) == "Taken away from Ward 3 in compartment A: nobody unloaded it"
     client = Client()
     client.force_login(operator)
-    today = timezone.localdate(task.created_at).isoformat()
-    audit = client.get(f"/custody.csv?from={today}&to={today}").content.decode()
+    # From the day it was sent to the day it was taken away (30 min later: past midnight, in
+    # the site's time zone, when the test runs late in the evening there).
+    sent, moved_day = timezone.localdate(task.created_at), timezone.localdate(moved.at)
+    audit = client.get(f"/custody.csv?from={sent}&to={moved_day}").content.decode()
     assert "Taken away: nobody unloaded it" in audit
 
 
