@@ -341,19 +341,20 @@ def _server_times(samples: dict[str, Sample]) -> None:
 
 
 def _all_finished(samples: dict[str, Sample]) -> bool:
-    from scheduling.models import Task
-
-    pks = [int(code[2:]) for code in samples]
-    return not Task.objects.filter(pk__in=pks).exclude(status="completed").exists()
+    return not _not_completed(samples).exists()
 
 
 def _unfinished(samples: dict[str, Sample]) -> str:
     """The run's tasks not completed: code, status and robot, for the timeout's message."""
+    left = _not_completed(samples).select_related("robot")
+    return ", ".join(f"{t.code} {t.status} {t.robot and t.robot.code}" for t in left)
+
+
+def _not_completed(samples: dict[str, Sample]):
     from scheduling.models import Task
 
     pks = [int(code[2:]) for code in samples]
-    left = Task.objects.filter(pk__in=pks).exclude(status="completed").select_related("robot")
-    return ", ".join(f"{t.code} {t.status} {t.robot and t.robot.code}" for t in left)
+    return Task.objects.filter(pk__in=pks).exclude(status="completed")
 
 
 def _wait(check, timeout: float, what: str, explain=None, *args) -> None:

@@ -467,24 +467,28 @@ def _offer(task, robot, travel, *, margin: float, metric: bool) -> Allocation | 
     if base.cost is None:
         return None
     if metric and not travel.saw_infinity:
-        limit = base.cost + margin if margin < math.inf else _insertion_cost(task, robot, base)
+        limit = (
+            base.cost + margin if margin < math.inf else _insertion_cost(task, robot, base, problem)
+        )
         found = _held_karp(problem, limit, _savings(problem, held), base.tail(problem.times))
     else:
         found = _held_karp(problem, base.cost + margin, _least_arrivals(problem))
     return found and Allocation(robot.robot, _as_plan(problem, *found), found[0] - base.cost)
 
 
-def _insertion_cost(task, robot, base: _Finishing) -> float:
-    """A feasible route's cost, to prune the exact search before any offer is known."""
-    order = [base.problem.stops[j] for j in base.order()]
-    plan = _inserted(robot, order, task, base.problem.travel)
+def _insertion_cost(task, robot, base: _Finishing, problem: _Problem) -> float:
+    """A feasible route's cost, to prune the exact search before any offer is known: `task`
+    (the last of `problem`) inserted into the best order of the other stops, which `base`
+    solved (the route without the task, or one alike: another robot's, hence problem.stops)."""
+    order = [problem.stops[j] for j in base.order()]
+    plan = _inserted(robot, order, task, problem.travel)
     return plan.cost if plan else math.inf
 
 
 def _heuristic_offer(task, robot, travel) -> Allocation | None:
+    """Past EXACT_TASK_LIMIT: the task inserted into the robot's (kept) route, then or-opt."""
     base = _plan(robot, robot.tasks, travel)
-    plan = base and _inserted(robot, base.stops, task, travel)
-    plan = plan and _improved(robot, plan, travel)
+    plan = base and _plan(robot, (*robot.tasks, task), travel)
     return plan and Allocation(robot.robot, plan, plan.cost - base.cost)
 
 
@@ -592,9 +596,7 @@ def _exact_order(robot: RobotRoute, tasks: Sequence[TaskStops], travel: _Travel,
     base = _finishing(robot, tasks[:-1], travel)
     if base.cost is None:
         return None
-    order = [problem.stops[j] for j in base.order()]  # base may be another robot's, alike
-    inserted = _inserted(robot, order, tasks[-1], travel)
-    limit = min(limit, inserted.cost if inserted else math.inf)
+    limit = min(limit, _insertion_cost(tasks[-1], robot, base, problem))
     found = _held_karp(problem, limit, _savings(problem, held), base.tail(problem.times))
     return found and (found[0], tuple(found[1]))
 
