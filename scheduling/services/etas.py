@@ -225,11 +225,13 @@ def robot_pace_learn(*, robot: Robot, events: list[RobotEvent]) -> None:
     """Update the robot's pace from its `arrived` (travel since its last stop was done) and its
     `loaded`/`unloaded` events (dwell since it arrived there)."""
     changed = []
+    done = [e for e in events if e.type in DONE_EVENTS and e.task and e.stop is not None]
+    arrivals = _arrivals(robot, done)
     for event in events:
         if event.type == EventType.ARRIVED and event.task and event.stop is not None:
             changed += _travel_learn(robot, event)
-        elif event.type in DONE_EVENTS and event.task and event.stop is not None:
-            changed += _dwell_learn(robot, event)
+        elif event in done:
+            changed += _dwell_learn(robot, event, arrivals)
     if changed:
         robot.save(update_fields=sorted(set(changed)))
 
@@ -267,13 +269,23 @@ def _given_after(robot: Robot, code: str, done: RobotEvent) -> bool:
     return assigned_at is None or assigned_at > done.received_at
 
 
-def _dwell_learn(robot: Robot, event: RobotEvent) -> list[str]:
-    arrived = (
-        RobotEvent.objects.filter(
-            robot=robot, type=EventType.ARRIVED, task=event.task, stop=event.stop, id__lt=event.id
-        )
-        .order_by("-id")
-        .first()
+def _arrivals(robot: Robot, done: list[RobotEvent]) -> list[RobotEvent]:
+    """The robot's `arrived` events at the stops of `done` (loaded, unloaded) before them,
+    newest first, in one query: a delivery reported at once has two."""
+    if not done:
+        return []
+    stops = Q()
+    for event in done:
+        stops |= Q(task=event.task, stop=event.stop)
+    before = max(event.id for event in done)
+    found = RobotEvent.objects.filter(stops, robot=robot, type=EventType.ARRIVED, id__lt=before)
+    return list(found.order_by("-id"))
+
+
+def _dwell_learn(robot: Robot, event: RobotEvent, arrivals: list[RobotEvent]) -> list[str]:
+    arrived = next(
+        (a for a in arrivals if (a.task, a.stop) == (event.task, event.stop) and a.id < event.id),
+        None,
     )
     seconds = _between(arrived, event)
     if seconds is None:

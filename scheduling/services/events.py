@@ -27,7 +27,7 @@ from scheduling.services.custody import (
     reports_custody,
 )
 from scheduling.services.faults import event_anomaly_record
-from scheduling.services.history import task_move, task_record
+from scheduling.services.history import task_move, task_moves_held, task_moves_write, task_record
 from scheduling.services.plans import robot_dock_if_idle, robot_replan
 from scheduling.services.presence import task_give_back
 
@@ -65,10 +65,11 @@ def heartbeat_tasks_apply(*, applied: AppliedHeartbeat) -> None:
     codes = {event.task for _, event in events} | {c for m in plans for c in _plan_tasks(m)}
     beat = _Heartbeat(applied.robot, applied.now, _tasks(applied.robot, codes))
     _check(events, beat.tasks)
-    for message in plans:
-        _plan_acked(beat, message)
-    for _, event in events:
-        _event_apply(beat, event)
+    with task_moves_held():  # a delivery reported at once moves its task four times
+        for message in plans:
+            _plan_acked(beat, message)
+        for _, event in events:
+            _event_apply(beat, event)
     _replan_if_needed(beat)
 
 
@@ -289,6 +290,7 @@ def _loaded_any(task: Task) -> bool:
 
 def _failed_before(task: Task) -> bool:
     """Whether a robot already gave the task back as failed: it is not handed round forever."""
+    task_moves_write()  # the history this heartbeat has added so far, too
     return task.history.filter(
         cause=Cause.ROBOT_FAULT, new=TaskStatus.DUE, event__isnull=False
     ).exists()

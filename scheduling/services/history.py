@@ -1,6 +1,15 @@
-"""Every change of a task goes through here: its status, its history entry, the live push."""
+"""Every change of a task goes through here: its status, its history entry, the live push.
+
+A unit of work that moves the same tasks several times can hold the writes to its end
+(`task_moves_held`): a heartbeat reporting a delivery moves its task four times (acknowledged,
+picked up, delivered, completed), eight statements one by one and two held.
+"""
 
 import logging
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
+from dataclasses import dataclass, field
 from datetime import datetime
 
 from django.db import transaction
@@ -19,7 +28,11 @@ def task_move(task: Task, new: str, *, at: datetime, fields=(), **why) -> None:
     Call with the task's robot locked, or after claiming the row by a conditional update.
     """
     old, task.status = task.status, new
-    task.save(update_fields=["status", *fields])
+    held = _HELD.get()
+    if held is None:
+        task.save(update_fields=["status", *fields])
+    else:
+        held.save(task, ["status", *fields])
     task_record(task, old=old, at=at, **why)
 
 
@@ -34,8 +47,13 @@ def task_record(
     user=None,
     note: str = "",
 ) -> TaskTransition:
-    """Add an entry to the task's history (old == new for events that changed no status)."""
+    """Add an entry to the task's history (old == new for events that changed no status).
+    While moves are held (task_moves_held) it is stored, and told, when they are written."""
     entry = _entry(task, old, at, cause, robot=robot, event=event, user=user, note=note)
+    held = _HELD.get()
+    if held is not None:
+        held.entries.append(entry)
+        return entry
     entry.save(force_insert=True)
     changes.changed(kind=changes.TASK, site_id=task.site_id, subject=entry)
     return entry
@@ -47,6 +65,55 @@ def tasks_record(moved: list[tuple[Task, object]], *, old: str, at: datetime, ca
     entries = [_entry(task, old, at, cause, robot=robot) for task, robot in moved]
     for entry in TaskTransition.objects.bulk_create(entries):
         changes.changed(kind=changes.TASK, site_id=entry.task.site_id, subject=entry)
+
+
+@dataclass
+class _HeldMoves:
+    tasks: dict[int, tuple[Task, set[str]]] = field(default_factory=dict)  # by id(task)
+    entries: list[TaskTransition] = field(default_factory=list)
+
+    def save(self, task: Task, fields: list[str]) -> None:
+        self.tasks.setdefault(id(task), (task, set()))[1].update(fields)
+
+    def write(self) -> None:
+        """Each task once with every field its moves set, then the entries in one insert,
+        told in the order they were recorded."""
+        tasks, entries = list(self.tasks.values()), self.entries
+        self.tasks, self.entries = {}, []
+        for task, fields in tasks:
+            task.save(update_fields=sorted(fields))
+        for entry in TaskTransition.objects.bulk_create(entries):
+            changes.changed(kind=changes.TASK, site_id=entry.task.site_id, subject=entry)
+
+
+_HELD: ContextVar[_HeldMoves | None] = ContextVar("task_moves_held", default=None)
+
+
+@contextmanager
+def task_moves_held() -> Iterator[None]:
+    """Hold task_move's saves and task_record's entries until the block ends, then write
+    them: each task moved saved once, its history entries in one insert, then told
+    (core.changes) in order. Only around code that reads neither the tasks it moves nor
+    their history from the database, or that calls task_moves_write() before it does; the
+    tasks in memory are moved at once, as always. Held inside held is the outer block; an
+    exception drops what is held, as the transaction it was in rolls back."""
+    if _HELD.get() is not None:
+        yield
+        return
+    held = _HeldMoves()
+    token = _HELD.set(held)
+    try:
+        yield
+        held.write()
+    finally:
+        _HELD.reset(token)
+
+
+def task_moves_write() -> None:
+    """Write what task_moves_held holds so far, before reading tasks or their history."""
+    held = _HELD.get()
+    if held is not None:
+        held.write()
 
 
 def _entry(task, old, at, cause, robot=None, event=None, user=None, note="") -> TaskTransition:

@@ -49,7 +49,8 @@ def plan_post(
     router = router_for(robot.site)
     wire = _wire_stops(router, start, stops)
     on_route = {code: _task_wire(tasks[code]) for code in dict.fromkeys(s.task for s in stops)}
-    plan = _post(robot, wire, on_route, now, wake_at_once)  # first: the robot travels meanwhile
+    current = _current_plan(robot)  # first: the robot travels meanwhile
+    plan = _post(robot, wire, on_route, now, current=current, wake_at_once=wake_at_once)
     pace, dwell = robot_pace(robot)
     times = stop_times(router, start, stops, pace=pace, dwell=dwell)
     if etas_changed is None:
@@ -62,10 +63,14 @@ def plan_post(
 def plan_dock_post(*, robot: Robot, now: datetime) -> RobotPlan:
     """The plan of a robot with nothing left to do: back to its dock (to charge, if it was sent
     to charge: scheduling.services.charging)."""
+    return _dock_post(robot, now, _current_plan(robot))
+
+
+def _dock_post(robot: Robot, now: datetime, current: RobotPlan | None) -> RobotPlan:
     dock = robot_dock(robot)
     via = router_for(robot.site).leg(robot_position(robot), dock).via
     stop = protocol.plan_dock_stop(waypoint=dock, via=via, charge=robot.sent_to_charge)
-    return _post(robot, [stop], {}, now)
+    return _post(robot, [stop], {}, now, current=current)
 
 
 def robot_replan(*, robot: Robot, now: datetime, held: HeldRoute | None = None) -> RobotPlan:
@@ -114,10 +119,10 @@ def robot_dock_if_idle(*, robot: Robot, now: datetime) -> RobotPlan | None:
     """Send a robot that has nothing left to do to its dock, unless that is its plan already."""
     if not robot_route(robot=robot, now=now).is_empty:
         return None
-    current = RobotPlan.objects.filter(robot=robot).first()
+    current = _current_plan(robot)
     if current is not None and current.is_dock:
         return None
-    return plan_dock_post(robot=robot, now=now)
+    return _dock_post(robot, now, current)  # the plan read once (every delivery ends here)
 
 
 def plan_restore(*, robot: Robot, now: datetime) -> RobotPlan | None:
@@ -141,9 +146,15 @@ def plan_withdraw_pending(*, robot: Robot, reason: str, now: datetime) -> int:
 
 
 def _post(
-    robot: Robot, stops: list[dict], tasks: dict[str, dict], now: datetime, wake_at_once=True
+    robot: Robot,
+    stops: list[dict],
+    tasks: dict[str, dict],
+    now: datetime,
+    *,
+    current: RobotPlan | None,
+    wake_at_once=True,
 ) -> RobotPlan:
-    current = _current_plan(robot)
+    """Post the plan after `current`, the robot's last plan as _current_plan read it."""
     version = max(current.version if current else 0, robot.plan_version) + 1
     body = protocol.plan_body(version=version, stops=stops, tasks=tasks)
     message = board_post(

@@ -92,6 +92,21 @@ def test_progress_recomputes_the_etas_and_learns_how_long_the_robot_stays(r1, to
     assert to_lab.eta == T0 + seconds(40 + PHARMACY_TO_LAB + 12.0)
 
 
+def test_a_delivery_reported_in_one_heartbeat_learns_each_stops_own_dwell(r1, to_lab):
+    code, at_lab = to_lab.code, T0 + seconds(TO_PHARMACY + 12 + PHARMACY_TO_LAB)
+    report = [  # back in Wi-Fi after the whole delivery: 12 s at the pharmacy, 20 s at the lab
+        event("arrived", code, 0, at=T0),
+        event("loaded", code, 0, at=T0 + seconds(12)),
+        event("arrived", code, 1, at=at_lab),
+        event("unloaded", code, 1, at=at_lab + seconds(20)),
+    ]
+
+    beat(r1, now=at_lab + seconds(30), at="2F-LAB", events=report)
+
+    r1.refresh_from_db()
+    assert r1.pace_dwell == pytest.approx(0.8 * 12.0 + 0.2 * 20.0)  # LEARNING_RATE 0.2
+
+
 def test_a_robot_twenty_times_faster_than_the_map_is_predicted_so(r1, to_lab):
     code = to_lab.code
     beat(r1, now=T0 + seconds(2), at="1F-PHARM", events=[event("arrived", code, 0, at=T0)])

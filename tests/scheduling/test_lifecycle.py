@@ -1,13 +1,17 @@
 """A task's life through real HTTP heartbeats (protocol v1): plan, ack, load, unload, done."""
 
 import pytest
+from django.db import connection
+from django.test.utils import CaptureQueriesContext
 
 from boards.models import RobotEvent
+from core import changes
 from robots.models import Alert
 from scheduling.models import Task, TaskTransition
 from scheduling.services import task_allocate
 from tests import factories
 from tests.scheduling.conftest import Beater, event, pending_plans, plans, request, route, status
+from ui.live.payloads import task_payload
 
 AT_DOCK = {"floor": "1F", "waypoint": "1F-DOCK-1"}
 AT_PHARMACY = {"floor": "1F", "waypoint": "1F-PHARM"}
@@ -194,6 +198,43 @@ def test_a_heartbeat_with_a_task_event_needs_eleven_more_queries(
         beater.beat(events=[event("loaded", task.code, 0)])
     with django_assert_num_queries(7):
         beater.beat(events=[event("arrived")])
+
+
+def test_a_delivery_reported_at_once_writes_its_task_once_and_tells_every_step(r1, site):
+    task = request(site)
+    task_allocate(task_id=task.pk)
+    beater = Beater(r1)
+    [plan] = plans(beater.beat())
+    told = []
+    report = [
+        event("loaded", task.code, 0),
+        event("unloaded", task.code, 1),
+        event("task_completed", task.code),
+    ]
+
+    def page(*, kind, subject, **_):
+        if kind == changes.TASK:
+            told.append(task_payload(subject)["status"])
+
+    with changes.changed.watched_by(page), CaptureQueriesContext(connection) as queries:
+        beater.beat(acks=[plan["id"]], events=report)
+
+    # Four moves (acknowledged by the plan's ack, picked up, delivered, completed): the task
+    # saved once with all they set, their history in one insert (task_moves_held).
+    sql = [q["sql"] for q in queries.captured_queries]
+    assert len([q for q in sql if q.startswith('UPDATE "scheduling_task" ')]) == 1
+    assert len([q for q in sql if q.startswith('INSERT INTO "scheduling_tasktransition"')]) == 1
+    assert history(task)[-4:] == [
+        ("assigned", "acknowledged", "robot_ack"),
+        ("acknowledged", "picked_up", "robot_event"),
+        ("picked_up", "delivered", "robot_event"),
+        ("delivered", "completed", "robot_event"),
+    ]
+    task.refresh_from_db()
+    assert (task.status, task.ack_due_at) == ("completed", None)
+    assert None not in (task.acknowledged_at, task.picked_up_at, task.delivered_at)
+    assert task.completed_at == task.delivered_at
+    assert told == ["acknowledged", "picked_up", "delivered", "completed"]  # the pages, in order
 
 
 def test_a_busy_resource_on_the_next_leg_costs_three_queries_more(

@@ -9,6 +9,7 @@ from django.utils import timezone
 
 from robots.choices import Presence, RobotStatus
 from robots.mapcache import floor_code_by_id, site_map, waypoint_by_id
+from scheduling.choices import TaskStatus
 from scheduling.deadlines import lateness_note
 
 
@@ -44,12 +45,12 @@ def robot_payload(robot) -> dict:
 
 
 def task_payload(entry) -> dict:
-    """A task's change: `entry` is the TaskTransition just recorded."""
-    task = entry.task
+    """A task's change: `entry` is the TaskTransition just recorded. Its status is the
+    entry's, not the task's: moves held to the end of a heartbeat are told after the last."""
     return {
-        "code": task.code,
-        "status": task.status,
-        "status_label": task.get_status_display(),
+        "code": entry.task.code,
+        "status": entry.new,
+        "status_label": TaskStatus(entry.new).label,
         "old": entry.old,
         "cause": entry.cause,
         "robot": entry.robot.code if entry.robot else None,
