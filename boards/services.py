@@ -15,7 +15,7 @@ from boards.hooks import heartbeat_applied
 from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.push import wake_now, wake_on_commit
 from core import memo
-from core.statements import Statement
+from core.statements import Statement, row_update
 from robots.cadence import heartbeat_interval_told
 from robots.models import Robot
 from robots.services import robot_heartbeat_record
@@ -184,12 +184,30 @@ def board_ack(*, robot: Robot, public_ids: list[str], now: datetime) -> list[Boa
     """Take acked messages off the board; returns those this call took off (others ignored)."""
     if not public_ids:
         return []
+    if len(public_ids) == 1:  # nearly every ack: a plan, an action (statements compiled once)
+        return _ack_one(robot, BoardMessage.pk_from_public_id(public_ids[0]), now)
     acked = list(BoardMessage.objects.pending().filter(robot=robot).with_public_ids(public_ids))
     if acked:
         BoardMessage.objects.filter(pk__in=[m.pk for m in acked]).update(acked_at=now)
         for message in acked:
             message.acked_at = now
     return acked
+
+
+def _ack_one(robot: Robot, pk: int | None, now: datetime) -> list[BoardMessage]:
+    message = _PENDING_ONE.first(robot_id=robot.pk, pk=pk) if pk is not None else None
+    if message is None:
+        return []
+    message.acked_at = now
+    row_update(message, ["acked_at"])
+    return [message]
+
+
+_PENDING_ONE = Statement(
+    lambda robot_id, pk: BoardMessage.objects.pending().filter(robot_id=robot_id, pk=pk),
+    robot_id=int,
+    pk=int,
+)
 
 
 def board_post(

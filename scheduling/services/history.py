@@ -16,6 +16,7 @@ from django.db import transaction
 
 from core import changes
 from core.outbox import send_soon
+from core.statements import row_update
 from scheduling.models import Task, TaskTransition
 from scheduling.pending import allocation_pending_claim
 
@@ -81,7 +82,7 @@ class _HeldMoves:
         tasks, entries = list(self.tasks.values()), self.entries
         self.tasks, self.entries = {}, []
         for task, fields in tasks:
-            task.save(update_fields=sorted(fields))
+            row_update(task, sorted(fields))  # task.save(update_fields=...), compiled once
         for entry in TaskTransition.objects.bulk_create(entries):
             changes.changed(kind=changes.TASK, site_id=entry.task.site_id, subject=entry)
 

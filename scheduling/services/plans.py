@@ -49,7 +49,8 @@ def plan_post(
     router = router_for(robot.site)
     wire = _wire_stops(router, start, stops)
     on_route = {code: _task_wire(tasks[code]) for code in dict.fromkeys(s.task for s in stops)}
-    current = _current_plan(robot)  # first: the robot travels meanwhile
+    # The plan first (the robot travels meanwhile), then its tasks' ETAs.
+    current = _current_plan(robot)
     plan = _post(robot, wire, on_route, now, current=current, wake_at_once=wake_at_once)
     pace, dwell = robot_pace(robot)
     times = stop_times(router, start, stops, pace=pace, dwell=dwell)
