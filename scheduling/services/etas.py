@@ -29,7 +29,7 @@ from boards.choices import EventType
 from boards.models import RobotEvent
 from boards.services import AppliedHeartbeat
 from core import changes
-from core.statements import rows_update
+from core.statements import row_update, rows_update
 from resources.choices import HOLDING_LEASE_STATES
 from resources.leases import resource_wait_estimate
 from resources.models import Lease, Resource
@@ -233,7 +233,7 @@ def robot_pace_learn(*, robot: Robot, events: list[RobotEvent]) -> None:
         elif event in done:
             changed += _dwell_learn(robot, event, arrivals)
     if changed:
-        robot.save(update_fields=sorted(set(changed)))
+        row_update(robot, sorted(set(changed)))  # robot.save(update_fields=...), compiled once
 
 
 def _travel_learn(robot: Robot, event: RobotEvent) -> list[str]:

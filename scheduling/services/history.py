@@ -31,7 +31,7 @@ def task_move(task: Task, new: str, *, at: datetime, fields=(), **why) -> None:
     old, task.status = task.status, new
     held = _HELD.get()
     if held is None:
-        task.save(update_fields=["status", *fields])
+        row_update(task, ["status", *fields])  # task.save(update_fields=...), compiled once
     else:
         held.save(task, ["status", *fields])
     task_record(task, old=old, at=at, **why)

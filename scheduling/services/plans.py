@@ -12,7 +12,7 @@ from boards import protocol
 from boards.choices import MessageType
 from boards.models import BoardMessage
 from boards.services import board_post, board_withdraw
-from core.statements import Statement
+from core.statements import Statement, row_update
 from robots.mapcache import router_for
 from robots.models import Robot
 from robots.router import Router
@@ -171,7 +171,7 @@ def _post(
             robot=robot, version=version, body=body, message=message, posted_at=now
         )
     current.version, current.body, current.message, current.posted_at = version, body, message, now
-    current.save(update_fields=["version", "body", "message", "posted_at"])
+    row_update(current, ["version", "body", "message", "posted_at"])  # compiled once
     return current
 
 

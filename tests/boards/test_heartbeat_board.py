@@ -88,6 +88,29 @@ def test_it_ignores_acks_of_unknown_withdrawn_or_foreign_messages(robot_http, ro
     assert foreign.acked_at is None
 
 
+@pytest.mark.parametrize("which", ["unknown", "nonsense", "foreign", "withdrawn", "acked"])
+def test_it_ignores_a_lone_ack_of_a_message_not_on_its_board(robot_http, robot, site, which):
+    """A lone ack (nearly every ack) takes its own path (boards.services._ack_one)."""
+    foreign = post_action(factories.robot_create(site, "R2"))
+    withdrawn, acked, pending = post_action(robot), post_action(robot), post_action(robot)
+    board_withdraw(messages=[withdrawn], reason="test")
+    robot_http.heartbeat(1, acks=[acked.public_id])
+    ack = {
+        "unknown": "m-999999",
+        "nonsense": "nonsense",
+        "foreign": foreign.public_id,
+        "withdrawn": withdrawn.public_id,
+        "acked": acked.public_id,
+    }[which]
+    acked_at = BoardMessage.objects.get(pk=acked.pk).acked_at
+
+    reply = robot_http.heartbeat(2, acks=[ack])
+
+    assert [m["id"] for m in reply["messages"]] == [pending.public_id]
+    assert BoardMessage.objects.get(pk=acked.pk).acked_at == acked_at  # not acked again
+    assert BoardMessage.objects.filter(acked_at__isnull=False).count() == 1
+
+
 def test_it_applies_each_event_once_under_duplicate_heartbeats(robot_http, robot, applied_events):
     events = [{"id": "e-1", "type": "arrived"}, {"id": "e-2", "type": "arrived"}]
     body = factories.heartbeat_body(1, events=events)
