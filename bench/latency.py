@@ -306,7 +306,7 @@ def _run(stack: Stack, sessions, robots: list[BenchRobot], rng, outcome: Outcome
     _server_times(codes)
     outcome.samples += [s for s in codes.values() if s.received is not None]
     outcome.lost += sum(s.received is None for s in codes.values())
-    _wait(lambda: _all_finished(codes), 60, "the run's tasks completed", _unfinished, codes)
+    _wait(lambda: _all_finished(codes), 60, "the run's tasks completed", lambda: _unfinished(codes))
     # Start the next run at a random moment of the robots' heartbeat cycle: runs that followed
     # each other at once would fall at the same phase every time.
     time.sleep(0.2 + rng.random())
@@ -357,12 +357,12 @@ def _not_completed(samples: dict[str, Sample]):
     return Task.objects.filter(pk__in=pks).exclude(status="completed")
 
 
-def _wait(check, timeout: float, what: str, explain=None, *args) -> None:
-    """Poll `check` until it holds; past the timeout, raise, with explain(*args) if given."""
+def _wait(check, timeout: float, what: str, explain=None) -> None:
+    """Poll `check` until it holds; past the timeout, raise, with explain() if given."""
     deadline = time.monotonic() + timeout
     while not check():
         if time.monotonic() > deadline:
-            detail = f" ({explain(*args)})" if explain else ""
+            detail = f" ({explain()})" if explain else ""
             raise TimeoutError(f"{what}: not within {timeout} s{detail}")
         time.sleep(0.02)
 

@@ -498,7 +498,7 @@ def _plan(
     found = _least_travel_order(robot, tasks, travel, limit=limit)
     if found is None:
         return None
-    stops = [stop for task in tasks for stop in (*task.pickups, *task.dropoffs)]
+    stops = [stop for task in tasks for stop in _stops(task)]
     exact = len(tasks) <= EXACT_TASK_LIMIT
     return Plan(tuple(stops[j] for j in found[1]), found[0], exact=exact)
 
@@ -562,9 +562,14 @@ def _order_keep(travel: _Travel, shape: tuple, found, *, solved_otherwise: bool 
     kept = _ORDERS.get(key, _UNSOLVED)
     if solved_otherwise and kept is not _UNSOLVED and not isinstance(kept, _Above):
         return
-    if len(_ORDERS) >= ORDERS_KEPT:
-        _ORDERS.clear()
-    _ORDERS[key] = found
+    _keep(_ORDERS, ORDERS_KEPT, key, found)
+
+
+def _keep(store: dict, most: int, key, value) -> None:
+    """store[key] = value, the store cleared whole first if it holds `most` already."""
+    if len(store) >= most:
+        store.clear()
+    store[key] = value
 
 
 @dataclass(frozen=True)
@@ -591,14 +596,19 @@ def _exact_order(robot: RobotRoute, tasks: Sequence[TaskStops], travel: _Travel,
     problem = _problem(robot, tasks, travel)
     if len(tasks) < BOUNDED_FROM or travel.saw_infinity or not _all_picked_up(tasks[-1]):
         found = _held_karp(problem, limit, _least_arrivals(problem))
-        return found and (found[0], tuple(found[1]))
+    else:
+        found = _bounded_by_held_route(robot, tasks, travel, problem, limit)
+    return found and (found[0], tuple(found[1]))
+
+
+def _bounded_by_held_route(robot, tasks, travel: _Travel, problem: _Problem, limit: float):
+    """_held_karp's answer for `problem`, bounded by the route without its last task."""
     held = len(problem.stops) - len(_stops(tasks[-1]))
     base = _finishing(robot, tasks[:-1], travel)
     if base.cost is None:
         return None
     limit = min(limit, _insertion_cost(tasks[-1], robot, base, problem))
-    found = _held_karp(problem, limit, _savings(problem, held), base.tail(problem.times))
-    return found and (found[0], tuple(found[1]))
+    return _held_karp(problem, limit, _savings(problem, held), base.tail(problem.times))
 
 
 def _all_picked_up(task: TaskStops) -> bool:
@@ -617,9 +627,7 @@ def _finishing(robot: RobotRoute, tasks: Sequence[TaskStops], travel: _Travel) -
     found = _FINISHING.get((travel.travel_time, shape))
     if found is None:
         found = _Finishing(_problem(robot, tasks, travel))
-        if len(_FINISHING) >= FINISHING_KEPT:
-            _FINISHING.clear()
-        _FINISHING[travel.travel_time, shape] = found
+        _keep(_FINISHING, FINISHING_KEPT, (travel.travel_time, shape), found)
         order = None if found.cost is None else (found.cost, found.order())
         _order_keep(travel, shape, order, solved_otherwise=True)
     return found

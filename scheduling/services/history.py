@@ -63,7 +63,11 @@ def task_record(
 def tasks_record(moved: list[tuple[Task, object]], *, old: str, at: datetime, cause: str) -> None:
     """task_record for several tasks (each with its robot) in one insert: an allocation batch
     gives a burst's tasks their robots together (bench/latency.py)."""
-    entries = [_entry(task, old, at, cause, robot=robot) for task, robot in moved]
+    _entries_store([_entry(task, old, at, cause, robot=robot) for task, robot in moved])
+
+
+def _entries_store(entries: list[TaskTransition]) -> None:
+    """Insert history entries in one statement, then tell each (core.changes), in order."""
     for entry in TaskTransition.objects.bulk_create(entries):
         changes.changed(kind=changes.TASK, site_id=entry.task.site_id, subject=entry)
 
@@ -83,8 +87,7 @@ class _HeldMoves:
         self.tasks, self.entries = {}, []
         for task, fields in tasks:
             row_update(task, sorted(fields))  # task.save(update_fields=...), compiled once
-        for entry in TaskTransition.objects.bulk_create(entries):
-            changes.changed(kind=changes.TASK, site_id=entry.task.site_id, subject=entry)
+        _entries_store(entries)
 
 
 _HELD: ContextVar[_HeldMoves | None] = ContextVar("task_moves_held", default=None)
