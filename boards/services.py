@@ -105,6 +105,9 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
 
 def _events_record(robot: Robot, heartbeat: dict, now: datetime) -> list[RobotEvent]:
     """Store the events not seen before, in the robot's order; return only those."""
+    unseen = _unseen(robot, RobotEvent, "event_id", heartbeat["events"])
+    if not unseen:  # most heartbeats: bulk_create([]) still costs its checks
+        return []
     return RobotEvent.objects.bulk_create(
         RobotEvent(
             robot=robot,
@@ -119,12 +122,15 @@ def _events_record(robot: Robot, heartbeat: dict, now: datetime) -> list[RobotEv
             boot_id=heartbeat["boot_id"],
             seq=heartbeat["seq"],
         )
-        for event_id, event in _unseen(robot, RobotEvent, "event_id", heartbeat["events"])
+        for event_id, event in unseen
     )
 
 
 def _requests_record(robot: Robot, requests: list[dict], now: datetime) -> list[RobotRequest]:
     """Store the acquire/release requests not seen before; return only those."""
+    unseen = _unseen(robot, RobotRequest, "request_id", requests)
+    if not unseen:
+        return []
     return RobotRequest.objects.bulk_create(
         RobotRequest(
             robot=robot,
@@ -135,7 +141,7 @@ def _requests_record(robot: Robot, requests: list[dict], now: datetime) -> list[
             data=request["raw"],
             received_at=now,
         )
-        for request_id, request in _unseen(robot, RobotRequest, "request_id", requests)
+        for request_id, request in unseen
     )
 
 

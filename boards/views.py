@@ -4,16 +4,22 @@ from django.conf import settings
 from django.db import transaction
 from drf_spectacular.utils import OpenApiResponse, extend_schema
 from rest_framework import exceptions, status
+from rest_framework.renderers import JSONRenderer
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
 from boards.metrics import heartbeat_interval_told_observe, heartbeat_observe
 from boards.protocol import heartbeat_reply_wire
-from boards.serializers import HeartbeatResponseSerializer, HeartbeatSerializer
+from boards.serializers import (
+    HeartbeatResponseSerializer,
+    HeartbeatSerializer,
+    heartbeat_validate,
+)
 from boards.services import HeartbeatRejected, heartbeat_apply
 from core.commits import relaxed_commit_unless_written
 from core.errors import ErrorSerializer
 from core.jsonbody import json_parse
+from core.negotiation import JsonOnly
 from robots.authentication import IsRobotInUrl, RobotTokenLockingAuthentication
 from robots.mapcache import site_map
 from robots.models import PresenceChange, Robot, RobotActivity, RobotBoot
@@ -60,6 +66,8 @@ class HeartbeatView(APIView):
     authentication_classes = [RobotTokenLockingAuthentication]
     permission_classes = [IsRobotInUrl]
     parser_classes = []  # read_json_body parses, to enforce the protocol's size limit
+    renderer_classes = [JSONRenderer]
+    content_negotiation_class = JsonOnly
 
     def dispatch(self, request, *args, **kwargs):
         started = time.perf_counter()
@@ -87,10 +95,9 @@ class HeartbeatView(APIView):
     def post(self, request, robot):
         robot = request.auth  # locked
         body = read_json_body(request, limit=settings.HEARTBEAT_MAX_BYTES)
-        serializer = HeartbeatSerializer(data=body, context={"site_map": site_map(robot.site)})
-        serializer.is_valid(raise_exception=True)
+        heartbeat = heartbeat_validate(body, site_map(robot.site))
         try:
-            reply = heartbeat_apply(robot=robot, heartbeat=serializer.validated_data)
+            reply = heartbeat_apply(robot=robot, heartbeat=heartbeat)
         except HeartbeatRejected as rejected:
             raise exceptions.ValidationError(rejected.errors) from None
         heartbeat_interval_told_observe(reply.heartbeat_interval)

@@ -6,8 +6,18 @@ Robot.objects.filter(code=...), and PostgreSQL refuses it with an error (a 500).
 page or parameter of ours contains one, so the request is refused as a whole.
 
 BusyMiddleware times each request, for how busy the process is (core/busy.py).
+
+CSPMiddleware is django-csp's, building the policy once instead of twice a response.
 """
 
+from functools import cache
+
+from csp import middleware as csp
+from csp.constants import HEADER, HEADER_REPORT_ONLY
+from csp.utils import build_policy
+from django.conf import settings
+from django.core.signals import setting_changed
+from django.dispatch import receiver
 from django.http import HttpResponseBadRequest, JsonResponse
 
 from core.busy import busy
@@ -46,3 +56,61 @@ class BusyMiddleware:
             return self.get_response(request)
         finally:
             busy.finished()
+
+
+class CSPMiddleware(csp.CSPMiddleware):
+    """django-csp's middleware, sending the policy built once from the settings.
+
+    django-csp 4.0 builds both policies (enforced and report-only) from the settings on every
+    response, before it looks whether it sends them: 6 % of the instructions a robot's
+    heartbeat cost the server (bench/heartbeat_instructions.py, 2026-11-24). A response whose
+    policy nothing changed (no nonce asked for; no csp, csp_update, csp_replace or csp_exempt
+    decorator on its view, and none of ours has one) gets the headers built once; any other
+    goes through django-csp as before.
+    """
+
+    def process_response(self, request, response):
+        if _policy_changed(request, response):
+            return super().process_response(request, response)
+        excluded_for = request.path_info.startswith
+        for header, policy, excluded in _policies():
+            if policy and header not in response and not excluded_for(excluded):
+                response[header] = policy
+        request.csp_nonce = csp.CheckableLazyObject(self._csp_nonce_post_response)
+        return response
+
+
+_CHANGES = (
+    *("_csp_config", "_csp_update", "_csp_replace", "_csp_exempt"),
+    *("_csp_config_ro", "_csp_update_ro", "_csp_replace_ro", "_csp_exempt_ro"),
+)
+
+
+def _policy_changed(request, response) -> bool:
+    if getattr(request, "_csp_nonce", None) is not None:
+        return True
+    if settings.DEBUG and response.status_code in (404, 500):
+        return True  # django-csp leaves Django's debug pages without a policy
+    return any(getattr(response, change, None) is not None for change in _CHANGES)
+
+
+@cache
+def _policies() -> tuple[tuple[str, str, tuple[str, ...]], ...]:
+    """(header, policy, URL prefixes excluded from it) of the enforced and report-only ones."""
+    return tuple(
+        (header, build_policy(report_only=report_only), _excluded(setting))
+        for header, setting, report_only in (
+            (HEADER, "CONTENT_SECURITY_POLICY", False),
+            (HEADER_REPORT_ONLY, "CONTENT_SECURITY_POLICY_REPORT_ONLY", True),
+        )
+    )
+
+
+def _excluded(setting: str) -> tuple[str, ...]:
+    return tuple((getattr(settings, setting, None) or {}).get("EXCLUDE_URL_PREFIXES") or ())
+
+
+@receiver(setting_changed)
+def _policies_forget(*, setting, **kwargs):
+    if setting.startswith("CONTENT_SECURITY_POLICY"):
+        _policies.cache_clear()

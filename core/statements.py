@@ -28,7 +28,7 @@ from functools import cache
 from itertools import count
 
 from django.conf import settings
-from django.db import DatabaseError, connection
+from django.db import DEFAULT_DB_ALIAS, DatabaseError, connection, connections
 from django.db.models import Model, QuerySet, signals
 from django.db.models.query import get_related_populators
 
@@ -58,7 +58,7 @@ class _Compiled:
         if self.converters:
             rows = self.compiler.apply_converters(rows, self.converters)
         model = self.compiler.klass_info["model"]
-        db = connection.alias
+        db = DEFAULT_DB_ALIAS
         objects = []
         for row in rows:
             obj = model.from_db(db, self.init_list, row[self.fields_start : self.fields_end])
@@ -84,7 +84,7 @@ class Statement:
         self._compiled: dict[str, _Compiled] = {}
 
     def all(self, **values) -> list[Model]:
-        compiled = self._compiled.get(connection.vendor) or self._compile()
+        compiled = self._compiled.get(_db().vendor) or self._compile()
         with _cursor() as cursor:
             cursor.execute(compiled.sql, compiled.bind(values))
             rows = cursor.fetchall()
@@ -146,7 +146,8 @@ def row_update(instance: Model, fields: Sequence[str]) -> None:
     if signals.pre_save.has_listeners(model) or signals.post_save.has_listeners(model):
         instance.save(update_fields=fields)
         return
-    sql, concrete = _updates.get((model, tuple(fields), connection.vendor)) or _update_compile(
+    db = _db()
+    sql, concrete = _updates.get((model, tuple(fields), db.vendor)) or _update_compile(
         model, fields
     )
     values = [field.pre_save(instance, False) for field in concrete]
@@ -154,7 +155,7 @@ def row_update(instance: Model, fields: Sequence[str]) -> None:
         instance.save(update_fields=fields)
         return
     prepared = zip(concrete, values, strict=True)
-    params = [field.get_db_prep_save(value, connection) for field, value in prepared]
+    params = [field.get_db_prep_save(value, db) for field, value in prepared]
     with _cursor() as cursor:
         cursor.execute(sql, [*params, instance.pk])
         if cursor.rowcount == 0:  # as save() says it
@@ -262,17 +263,24 @@ def _cursor():
     Not while queries are logged (DEBUG, the tests' query captures): the log shows a query's
     SQL with its values as the client-binding cursor builds it, which a server-binding cursor
     does not keep; the statements and their results are the same either way."""
-    prepared = settings.DATABASE_PREPARED_STATEMENTS and connection.vendor == "postgresql"
-    if not prepared or connection.queries_logged:
-        return connection.cursor()
-    connection.validate_thread_sharing()
-    connection.close_if_health_check_failed()
-    connection.ensure_connection()
-    raw = connection.connection
+    db = _db()
+    prepared = settings.DATABASE_PREPARED_STATEMENTS and db.vendor == "postgresql"
+    if not prepared or db.queries_logged:
+        return db.cursor()
+    db.validate_thread_sharing()
+    db.close_if_health_check_failed()
+    db.ensure_connection()
+    raw = db.connection
     if raw.prepare_threshold is None:  # Django's default: psycopg prepares nothing, even asked
         # Only cursors that ask prepare: Django's client-binding cursors never do.
         raw.prepare_threshold = _PREPARE_ONLY_WHEN_ASKED
-    return connection.make_cursor(_preparing_cursor_class()(raw))
+    return db.make_cursor(_preparing_cursor_class()(raw))
+
+
+def _db():
+    """The default database's connection (of this thread), looked up once where it is used
+    several times: each use of django.db.connection looks it up again."""
+    return connections[DEFAULT_DB_ALIAS]
 
 
 _PREPARE_ONLY_WHEN_ASKED = 2**31 - 1  # executions before psycopg would prepare by itself

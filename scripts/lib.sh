@@ -321,6 +321,12 @@ ensure_nginx() {
     [[ -x /usr/sbin/nginx ]] || die "nginx is missing after installing it"
 }
 
+ensure_valgrind() {  # bench/heartbeat_instructions.py counts instructions with callgrind
+    command -v valgrind >/dev/null 2>&1 && return 0
+    ensure_apt_packages valgrind
+    command -v valgrind >/dev/null 2>&1 || die "valgrind is missing after installing it"
+}
+
 ensure_chromium() {
     if [[ -x "${CHROMIUM_BIN}" ]]; then
         return 0

@@ -29,6 +29,7 @@ TEST_PG_DB="${TEST_PG_DB:-hospital_delivery}"
 ensure_postgres_database "${TEST_PG_ROLE}" "${TEST_PG_PASSWORD}" "${TEST_PG_DB}"
 ensure_chromium
 ensure_nginx
+ensure_valgrind
 
 export SECRET_KEY=test-only-secret
 export DATABASE_URL="postgres://${TEST_PG_ROLE}:${TEST_PG_PASSWORD}@127.0.0.1:5432/${TEST_PG_DB}"

@@ -1,0 +1,20 @@
+"""bench/heartbeat_instructions.py --quick runs to completion in CI."""
+
+import re
+
+import pytest
+
+from tests.bench.quick import run_quick
+
+pytestmark = pytest.mark.slow
+
+
+def test_it_counts_the_instructions_of_a_heartbeat():
+    output = run_quick("bench/heartbeat_instructions.py", timeout=600)
+
+    assert "20 heartbeats counted (after 20)" in output
+    count = int(
+        re.search(r"instructions per heartbeat: ([\d,]+)", output).group(1).replace(",", "")
+    )
+    assert 100_000 < count < 100_000_000  # a Python request: millions, not thousands or billions
+    assert re.search(r"queries per heartbeat: \d+ \(BEGIN, SELECT robots_robot", output)
