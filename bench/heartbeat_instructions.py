@@ -5,7 +5,8 @@
     python bench/heartbeat_instructions.py --database sqlite:///
 
 bench/heartbeat_cpu.py divides CPU time by heartbeats, and on a shared machine that time moves
-by a third between runs of the same code (1.6 to 2.7 ms, 2026-11-24). This counts instructions
+by a third between runs of the same code (1.6 to 2.7 ms a heartbeat by process time, in rounds
+of this script's loop, 2026-11-24). This counts instructions
 instead, with valgrind's callgrind (Debian's package `valgrind`), which counts the same for the
 same code and input whatever else the machine runs: a change of 1 % shows. A robot at its dock
 heartbeats (no events, acks or requests; the body of bench/heartbeat.py) through Django's WSGI
