@@ -353,7 +353,7 @@ async def _robot(port, code, token, endpoint, first, window, load: Load) -> None
         await asyncio.sleep(max(due - loop.time(), 0))
         boot.seq += 1
         sent = loop.time()
-        request = _request(port, path, token, _body(boot.id, boot.seq, code))
+        request = _request(port, path, token, heartbeat_body(boot.id, boot.seq, code))
         try:
             status, body = await asyncio.wait_for(_exchange(port, request), TIMEOUT)
         except (TimeoutError, OSError, asyncio.IncompleteReadError, ValueError) as exc:
@@ -370,7 +370,8 @@ async def _robot(port, code, token, endpoint, first, window, load: Load) -> None
         due = max(due + interval, answered)  # a robot heartbeats again only once answered
 
 
-def _body(boot: str, seq: int, code: str) -> bytes:
+def heartbeat_body(boot: str, seq: int, code: str) -> bytes:
+    """Robot `code`'s heartbeat at its dock (also bench/heartbeat_instructions.py's)."""
     n = int(code[1:])
     return json.dumps(
         {

@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import datetime
 import io
-import json
 import os
 import platform
 import re
@@ -36,6 +35,7 @@ from pathlib import Path
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from bench.heartbeat import heartbeat_body
 from bench.stack import database_option, temporary_database
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -155,7 +155,7 @@ def _sender(database_url: str, robot: str):
     seq = iter(range(1, 2**62))
 
     def send() -> None:
-        body = json.dumps(_body(next(seq), dock=f"15F-DOCK-{robot[1:]}")).encode()
+        body = heartbeat_body("bench", next(seq), robot)
         statuses: list[str] = []
         environ = _environ(body, robot, token)
         answer = b"".join(application(environ, lambda s, h, e=None: statuses.append(s)))
@@ -163,13 +163,6 @@ def _sender(database_url: str, robot: str):
             raise SystemExit(f"heartbeat: {statuses[0]} {answer[:500]!r}")
 
     return send
-
-
-def _body(seq: int, *, dock: str) -> dict:
-    state = {"status": "idle", "floor": "15F", "waypoint": dock, "battery": 0.9}
-    state.update(load=0, plan_version=0, errors=[])
-    sent_at = datetime.datetime.now(datetime.UTC).isoformat()
-    return {"boot_id": "bench", "seq": seq, "sent_at": sent_at, "state": state, "events": []}
 
 
 def _environ(body: bytes, robot: str, token: str) -> dict:

@@ -84,8 +84,9 @@ class Statement:
         self._compiled: dict[str, _Compiled] = {}
 
     def all(self, **values) -> list[Model]:
-        compiled = self._compiled.get(_db().vendor) or self._compile()
-        with _cursor() as cursor:
+        db = _db()
+        compiled = self._compiled.get(db.vendor) or self._compile()
+        with _cursor(db) as cursor:
             cursor.execute(compiled.sql, compiled.bind(values))
             rows = cursor.fetchall()
         return compiled.instances(rows)
@@ -156,7 +157,7 @@ def row_update(instance: Model, fields: Sequence[str]) -> None:
         return
     prepared = zip(concrete, values, strict=True)
     params = [field.get_db_prep_save(value, db) for field, value in prepared]
-    with _cursor() as cursor:
+    with _cursor(db) as cursor:
         cursor.execute(sql, [*params, instance.pk])
         if cursor.rowcount == 0:  # as save() says it
             raise DatabaseError("Save with update_fields did not affect any rows.")
@@ -189,14 +190,13 @@ def row_claim(instance: Model, fields: Sequence[str], **expected) -> bool:
     every task it assigns this way."""
     model = type(instance)
     nulls = tuple((name, value is None) for name, value in expected.items())
-    key = (model, tuple(fields), nulls, connection.vendor)
+    db = _db()
+    key = (model, tuple(fields), nulls, db.vendor)
     sql, concrete, checked = _claims.get(key) or _claim_compile(key)
-    params = [
-        field.get_db_prep_save(field.pre_save(instance, False), connection) for field in concrete
-    ]
+    params = [field.get_db_prep_save(field.pre_save(instance, False), db) for field in concrete]
     params.append(instance.pk)
-    params += [field.get_db_prep_value(expected[field.name], connection) for field in checked]
-    with _cursor() as cursor:
+    params += [field.get_db_prep_value(expected[field.name], db) for field in checked]
+    with _cursor(db) as cursor:
         cursor.execute(sql, params)
         return cursor.rowcount == 1
 
@@ -219,17 +219,15 @@ def rows_update(objects: Sequence[Model], fields: Sequence[str]) -> None:
     Django's bulk_update (CASE WHEN per object, built each time)."""
     if not objects:
         return
-    model = type(objects[0])
-    if connection.vendor != "postgresql":
+    model, db = type(objects[0]), _db()
+    if db.vendor != "postgresql":
         model._base_manager.bulk_update(objects, fields)
         return
     sql, concrete = _arrays_updates.get((model, tuple(fields))) or _arrays_compile(model, fields)
     columns = [[obj.pk for obj in objects]]
     for field in concrete:
-        columns.append(
-            [field.get_db_prep_save(getattr(obj, field.attname), connection) for obj in objects]
-        )
-    with _cursor() as cursor:
+        columns.append([field.get_db_prep_save(getattr(obj, field.attname), db) for obj in objects])
+    with _cursor(db) as cursor:
         cursor.execute(sql, columns)
 
 
@@ -257,13 +255,13 @@ def _arrays_compile(model: type[Model], fields: Sequence[str]) -> tuple[str, lis
     return sql, concrete
 
 
-def _cursor():
-    """The connection's cursor, or on PostgreSQL one that prepares every statement it runs.
+def _cursor(db):
+    """The connection's cursor (`db`, from _db()), or on PostgreSQL one that prepares every
+    statement it runs.
 
     Not while queries are logged (DEBUG, the tests' query captures): the log shows a query's
     SQL with its values as the client-binding cursor builds it, which a server-binding cursor
     does not keep; the statements and their results are the same either way."""
-    db = _db()
     prepared = settings.DATABASE_PREPARED_STATEMENTS and db.vendor == "postgresql"
     if not prepared or db.queries_logged:
         return db.cursor()
