@@ -111,6 +111,17 @@ def test_it_ignores_a_lone_ack_of_a_message_not_on_its_board(robot_http, robot, 
     assert BoardMessage.objects.filter(acked_at__isnull=False).count() == 1
 
 
+@pytest.mark.parametrize("accept", ["text/html", "application/xml", "*/*"])
+def test_it_answers_json_whatever_the_robot_accepts(robot_http, robot, accept):
+    message = post_action(robot)
+
+    response = robot_http.post(factories.heartbeat_body(1), headers={"Accept": accept})
+
+    assert response.status_code == 200
+    assert response.headers["Content-Type"] == "application/json"
+    assert [m["id"] for m in response.json()["messages"]] == [message.public_id]
+
+
 def test_it_applies_each_event_once_under_duplicate_heartbeats(robot_http, robot, applied_events):
     events = [{"id": "e-1", "type": "arrived"}, {"id": "e-2", "type": "arrived"}]
     body = factories.heartbeat_body(1, events=events)
