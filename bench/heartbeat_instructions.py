@@ -3,6 +3,7 @@
     python bench/heartbeat_instructions.py            # 200 heartbeats counted, PostgreSQL
     python bench/heartbeat_instructions.py --quick    # 20: what CI runs
     python bench/heartbeat_instructions.py --database sqlite:///
+    python bench/heartbeat_instructions.py --delivery # 30 delivery cycles counted (--quick: 3)
 
 bench/heartbeat_cpu.py divides CPU time by heartbeats, and on a shared machine that time moves
 by a third between runs of the same code (1.6 to 2.7 ms a heartbeat by process time, in rounds
@@ -16,21 +17,33 @@ callgrind, side by side (robots R1 and R2), sending 20 heartbeats and 20 + N; th
 of the two totals, divided by N, leaves out the start (imports, the site loaded, the caches
 filled). The HTTP server and the database server are not counted; the queries a heartbeat
 sends are printed, for those.
+
+With --delivery it counts a delivery's cycle instead, what a burst of requests costs the web
+workers per task (bench/latency.py): a staff user's `POST /api/v1/tasks/` allocated in the
+request to the one robot at its dock (ALLOCATE_ON_REQUEST), the robot's heartbeat that takes
+the plan, the one that reports the delivery done (loaded, unloaded, task_completed, as
+bench/latency.py's robots report at once) and the one that acknowledges; each process on a
+database of its own, with its own site, robot and user.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime
 import io
+import json
 import os
 import platform
+import random
 import re
 import shutil
 import subprocess
 import sys
 import tempfile
+import uuid
 from pathlib import Path
+from urllib.parse import urlsplit
 
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
@@ -41,21 +54,31 @@ from bench.stack import database_option, temporary_database
 ROOT = Path(__file__).resolve().parent.parent
 SITE_FILE = ROOT / "sites" / "eulji.yaml"
 WARMUP = 20  # heartbeats in both runs: caches (site map, statements, prepared queries) filled
+CYCLES_WARMUP = 5  # delivery cycles likewise (--delivery)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="20 heartbeats counted: for CI")
+    parser.add_argument(
+        "--delivery", action="store_true", help="count delivery cycles, not plain heartbeats"
+    )
     parser.add_argument("--send", type=int, help=argparse.SUPPRESS)  # the child under valgrind
     parser.add_argument("--robot", default="R1", help=argparse.SUPPRESS)
     database_option(parser)
     options = parser.parse_args()
+    if options.send is not None and options.delivery:
+        _cycles_run(options.database, options.send)
+        return
     if options.send is not None:
         _heartbeats_send(options.database, options.send, options.robot)
         return
     valgrind = shutil.which("valgrind")
     if valgrind is None:
         raise SystemExit("valgrind is needed: apt-get install valgrind (Debian's package)")
+    if options.delivery:
+        _delivery_main(valgrind, options)
+        return
     counted = 20 if options.quick else 200
     with temporary_database(options.database) as url:
         queries = _queries_of_one(url)
@@ -67,22 +90,42 @@ def main() -> None:
     print(f"queries per heartbeat: {len(queries)} ({', '.join(queries)})")
 
 
-def _instructions(valgrind: str, database_url: str, counts: tuple[int, ...]) -> list[int]:
-    """The instructions a process sending each count of heartbeats executes in all, by
-    callgrind; the processes run side by side."""
+def _delivery_main(valgrind: str, options) -> None:
+    counted = 3 if options.quick else 30
+    counts = (CYCLES_WARMUP, CYCLES_WARMUP + counted)
+    with contextlib.ExitStack() as stack:
+        # Each process makes its site, robot and user: a database each.
+        urls = [stack.enter_context(temporary_database(options.database)) for _ in range(3)]
+        queries = _cycle_queries(urls[2])
+        before, after = _instructions(valgrind, urls[:2], counts, ["--delivery"])
+    today = datetime.datetime.now(datetime.UTC).date()
+    print(f"delivery instructions benchmark, {today} (UTC), Python {platform.python_version()}")
+    print(f"{counted} delivery cycles counted (after {CYCLES_WARMUP}), through the WSGI handler")
+    print(f"instructions per delivery cycle: {(after - before) / counted:,.0f}")
+    print(f"queries per delivery cycle: {queries} (a request, three heartbeats)")
+
+
+def _instructions(
+    valgrind: str, database_urls: str | list[str], counts: tuple[int, ...], extra=()
+) -> list[int]:
+    """The instructions a process sending each count of heartbeats (or of delivery cycles,
+    extra ["--delivery"], each on its database) executes in all, by callgrind; the processes
+    run side by side."""
+    if isinstance(database_urls, str):
+        database_urls = [database_urls] * len(counts)
     with tempfile.TemporaryDirectory(prefix="hd-callgrind-") as directory:
         runs = [
             subprocess.Popen(
                 [
                     *(valgrind, "--tool=callgrind", f"--callgrind-out-file={directory}/{count}"),
-                    *(sys.executable, __file__, "--send", str(count)),
-                    *("--robot", f"R{n}", "--database", database_url),
+                    *(sys.executable, __file__, "--send", str(count), *extra),
+                    *("--robot", f"R{n}", "--database", url),
                 ],
                 stdout=subprocess.PIPE,
                 stderr=subprocess.PIPE,
                 text=True,
             )
-            for n, count in enumerate(counts, 1)
+            for n, (count, url) in enumerate(zip(counts, database_urls, strict=True), 1)
         ]
         outputs = [run.communicate() for run in runs]
     totals = []
@@ -105,6 +148,97 @@ def _queries_of_one(database_url: str) -> list[str]:
     if finished.returncode != 0:
         raise SystemExit(f"the heartbeat whose queries are listed failed:\n{finished.stderr}")
     return finished.stdout.split("\n")[-2].split("|")
+
+
+def _cycle_queries(database_url: str) -> int:
+    """How many statements one delivery cycle sends (in a child process)."""
+    finished = subprocess.run(
+        [sys.executable, __file__, "--send", "-1", "--delivery", "--database", database_url],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if finished.returncode != 0:
+        raise SystemExit(f"the delivery cycle whose queries are counted failed:\n{finished.stderr}")
+    return int(finished.stdout.split("\n")[-2])
+
+
+def _cycles_run(database_url: str, count: int) -> None:
+    """Set up Django on the database, then run `count` delivery cycles; with -1, one cycle
+    after the warm-up, printing how many statements it sent."""
+    cycle = _cycler(database_url)
+    if count >= 0:
+        for _ in range(count):
+            cycle()
+        _django_finish()
+        return
+    from django.db import connection
+    from django.test.utils import CaptureQueriesContext
+
+    for _ in range(CYCLES_WARMUP):
+        cycle()
+    with CaptureQueriesContext(connection) as captured:
+        cycle()
+    _django_finish()
+    print(len(captured.captured_queries))
+
+
+def _cycler(database_url: str):
+    """One staff user and the robot R1 at its dock on the Eulji site; a function that runs one
+    delivery cycle (the request, then the robot's three heartbeats) through the WSGI handler."""
+    _django_setup(database_url, ALLOCATE_ON_REQUEST="true")
+    from django.core.wsgi import get_wsgi_application
+
+    from bench.latency import BenchRobot, _prepare, _request
+    from hospital_delivery.celery import app
+
+    # Nothing is sent to the worker with one robot (allocated in the request); were anything
+    # sent, it goes to a queue of this process's own, forgotten at the end (_django_finish).
+    app.conf.task_default_queue = f"hd-instructions-{uuid.uuid4().hex[:10]}"
+    transport = _WsgiTransport(get_wsgi_application())
+    tokens, fleet = _prepare(users=1, robots=1)
+    robot = BenchRobot("http://127.0.0.1", *fleet[0], transport=transport)
+    robot.client.heartbeat()
+    nurse, rng = {"Authorization": f"Bearer {tokens[0]}"}, random.Random(1)
+
+    def cycle() -> None:
+        status, task = transport.post("http://127.0.0.1/api/v1/tasks/", _request(rng), nurse)
+        if status != 201:
+            raise SystemExit(f"request: {status} {task}")
+        for _ in range(3):  # the plan; the delivery reported; the acknowledgements
+            robot.client.heartbeat()
+        if task["code"] not in robot.received or robot.client.unsent:
+            raise SystemExit(f"{task['code']}: its delivery did not go round in three heartbeats")
+
+    return cycle
+
+
+def _django_finish() -> None:
+    from django.conf import settings
+
+    from bench.stack import queue_forget
+    from core import outbox
+    from hospital_delivery.celery import app
+
+    outbox.drain(timeout=10)
+    queue_forget(settings.REDIS_URL, app.conf.task_default_queue)
+
+
+class _WsgiTransport:
+    """A RobotClient transport (and the task API's) that calls the WSGI application itself."""
+
+    def __init__(self, application):
+        self.application = application
+
+    def post(self, url: str, body: dict, headers: dict) -> tuple[int, dict | str]:
+        data = json.dumps(body).encode()
+        statuses: list[str] = []
+        environ = _environ(urlsplit(url).path, data, headers.get("Authorization", ""))
+        answer = b"".join(self.application(environ, lambda s, h, e=None: statuses.append(s)))
+        try:
+            return int(statuses[0].split()[0]), json.loads(answer)
+        except ValueError:
+            return int(statuses[0].split()[0]), answer.decode("utf-8", "replace")
 
 
 def _heartbeats_send(database_url: str, count: int, robot: str = "R1") -> None:
@@ -131,18 +265,23 @@ def _statement_name(sql: str) -> str:
     return f"{sql.split()[0]} {table.group(1)}" if table else " ".join(sql.split()[:2])
 
 
-def _sender(database_url: str, robot: str):
+def _django_setup(database_url: str, **environment: str) -> None:
     os.environ.update(
         DATABASE_URL=database_url,
         DJANGO_SETTINGS_MODULE="hospital_delivery.settings",
         ALLOWED_HOSTS="127.0.0.1",
         LOG_LEVEL="WARNING",
         DATABASE_CONN_MAX_AGE="600",  # one connection, as a gunicorn worker keeps
+        **environment,
     )
     os.environ.setdefault("SECRET_KEY", "bench-only-secret")
     import django
 
     django.setup()
+
+
+def _sender(database_url: str, robot: str):
+    _django_setup(database_url)
     from django.core.wsgi import get_wsgi_application
 
     from robots.models import Robot
@@ -157,7 +296,7 @@ def _sender(database_url: str, robot: str):
     def send() -> None:
         body = heartbeat_body("bench", next(seq), robot)
         statuses: list[str] = []
-        environ = _environ(body, robot, token)
+        environ = _environ(f"/api/v1/robots/{robot}/heartbeat", body, f"Bearer {token}")
         answer = b"".join(application(environ, lambda s, h, e=None: statuses.append(s)))
         if not statuses[0].startswith("200"):
             raise SystemExit(f"heartbeat: {statuses[0]} {answer[:500]!r}")
@@ -165,11 +304,11 @@ def _sender(database_url: str, robot: str):
     return send
 
 
-def _environ(body: bytes, robot: str, token: str) -> dict:
-    """What gunicorn hands the application for the robot's POST."""
+def _environ(path: str, body: bytes, authorization: str) -> dict:
+    """What gunicorn hands the application for a POST of a JSON body."""
     return {
         "REQUEST_METHOD": "POST",
-        "PATH_INFO": f"/api/v1/robots/{robot}/heartbeat",
+        "PATH_INFO": path,
         "SCRIPT_NAME": "",
         "QUERY_STRING": "",
         "SERVER_NAME": "127.0.0.1",
@@ -179,7 +318,7 @@ def _environ(body: bytes, robot: str, token: str) -> dict:
         "HTTP_HOST": "127.0.0.1",
         "CONTENT_TYPE": "application/json",
         "CONTENT_LENGTH": str(len(body)),
-        "HTTP_AUTHORIZATION": f"Bearer {token}",
+        "HTTP_AUTHORIZATION": authorization,
         "wsgi.input": io.BytesIO(body),
         "wsgi.errors": sys.stderr,
         "wsgi.url_scheme": "http",

@@ -15,7 +15,7 @@ from boards.hooks import heartbeat_applied
 from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.push import wake_now, wake_on_commit
 from core import memo
-from core.statements import Statement, row_update
+from core.statements import Statement, row_insert, row_update, rows_insert, values_stored
 from robots.cadence import heartbeat_interval_told
 from robots.models import Robot
 from robots.services import robot_heartbeat_record
@@ -106,23 +106,25 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
 def _events_record(robot: Robot, heartbeat: dict, now: datetime) -> list[RobotEvent]:
     """Store the events not seen before, in the robot's order; return only those."""
     unseen = _unseen(robot, RobotEvent, "event_id", heartbeat["events"])
-    if not unseen:  # most heartbeats: bulk_create([]) still costs its checks
+    if not unseen:  # most heartbeats
         return []
-    return RobotEvent.objects.bulk_create(
-        RobotEvent(
-            robot=robot,
-            event_id=event_id,
-            type=event["type"],
-            at=event.get("at"),
-            task=event.get("task", ""),
-            stop=event.get("stop"),
-            resource=event.get("resource", ""),
-            data=event["raw"],
-            received_at=now,
-            boot_id=heartbeat["boot_id"],
-            seq=heartbeat["seq"],
-        )
-        for event_id, event in unseen
+    return rows_insert(  # bulk_create, its INSERT built once (core.statements)
+        [
+            RobotEvent(
+                robot=robot,
+                event_id=event_id,
+                type=event["type"],
+                at=event.get("at"),
+                task=event.get("task", ""),
+                stop=event.get("stop"),
+                resource=event.get("resource", ""),
+                data=event["raw"],
+                received_at=now,
+                boot_id=heartbeat["boot_id"],
+                seq=heartbeat["seq"],
+            )
+            for event_id, event in unseen
+        ]
     )
 
 
@@ -131,17 +133,19 @@ def _requests_record(robot: Robot, requests: list[dict], now: datetime) -> list[
     unseen = _unseen(robot, RobotRequest, "request_id", requests)
     if not unseen:
         return []
-    return RobotRequest.objects.bulk_create(
-        RobotRequest(
-            robot=robot,
-            request_id=request_id,
-            type=request["type"],
-            resource=request["resource"],
-            to_floor=request.get("to_floor", ""),
-            data=request["raw"],
-            received_at=now,
-        )
-        for request_id, request in unseen
+    return rows_insert(
+        [
+            RobotRequest(
+                robot=robot,
+                request_id=request_id,
+                type=request["type"],
+                resource=request["resource"],
+                to_floor=request.get("to_floor", ""),
+                data=request["raw"],
+                received_at=now,
+            )
+            for request_id, request in unseen
+        ]
     )
 
 
@@ -153,11 +157,7 @@ def _unseen(robot: Robot, model, id_field: str, items: list[dict]) -> list[tuple
     incoming = _first_of_each_id(items)
     if not incoming:
         return []
-    seen = set(
-        model.objects.filter(robot=robot, **{f"{id_field}__in": list(incoming)}).values_list(
-            id_field, flat=True
-        )
-    )
+    seen = values_stored(model, id_field, list(incoming), robot_id=robot.pk)  # built once
     return [(item_id, item) for item_id, item in incoming.items() if item_id not in seen]
 
 
@@ -239,7 +239,7 @@ def board_post(
             reason="superseded",
             now=now,
         )
-    message = BoardMessage.objects.create(robot=robot, type=type, body=body, key=key, posted_at=now)
+    message = row_insert(BoardMessage(robot=robot, type=type, body=body, key=key, posted_at=now))
     wake = wake_now if robot_locked else wake_on_commit
     wake(robot_code=robot.code, message_id=message.public_id)
     return message

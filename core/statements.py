@@ -255,6 +255,118 @@ def _arrays_compile(model: type[Model], fields: Sequence[str]) -> tuple[str, lis
     return sql, concrete
 
 
+def rows_insert(objects: Sequence[Model]) -> list[Model]:
+    """bulk_create(objects) of one model's new objects (no primary key yet), in one statement
+    whatever their number; returns them with their keys. On PostgreSQL the statement is built
+    once per model (Django builds its INSERT again on every call: a delivery's report and a
+    nurse's request each insert four times) and the values go as one array per column, as
+    Django's own bulk_create sends them there (INSERT ... SELECT * FROM UNNEST(...)), prepared
+    like the other statements. Elsewhere, or where that would not write what bulk_create
+    writes (an expression for a value, a column UNNEST cannot carry), it is bulk_create."""
+    if not objects:
+        return []
+    model, db = type(objects[0]), _db()
+    compiled = db.vendor == "postgresql" and (
+        _inserts[model] if model in _inserts else _insert_compile(model)
+    )
+    if not compiled or any(obj.pk is not None for obj in objects):
+        return model._base_manager.bulk_create(objects)
+    sql, concrete = compiled
+    for obj in objects:
+        obj._prepare_related_fields_for_save(operation_name="bulk_create")
+    rows = [[field.pre_save(obj, True) for field in concrete] for obj in objects]
+    if any(hasattr(value, "resolve_expression") for row in rows for value in row):
+        return model._base_manager.bulk_create(objects)
+    columns = [
+        [field.get_db_prep_save(row[n], db) for row in rows] for n, field in enumerate(concrete)
+    ]
+    with _cursor(db) as cursor:
+        cursor.execute(sql, columns)
+        keys = cursor.fetchall()
+    for obj, (key,) in zip(objects, keys, strict=True):
+        obj.pk = key
+        obj._state.adding, obj._state.db = False, DEFAULT_DB_ALIAS
+    return list(objects)
+
+
+def row_insert(instance: Model) -> Model:
+    """Model.objects.create(...) of a built instance, with rows_insert's statement; save() where
+    that does more than write the row (pre_save or post_save receivers)."""
+    model = type(instance)
+    if signals.pre_save.has_listeners(model) or signals.post_save.has_listeners(model):
+        instance.save(force_insert=True)
+        return instance
+    return rows_insert([instance])[0]
+
+
+_inserts: dict[type[Model], tuple[str, list] | None] = {}
+
+
+def _insert_compile(model: type[Model]) -> tuple[str, list] | None:
+    """The INSERT of every concrete column but an automatic key, values from one array per
+    column; None where bulk_create would not use UNNEST for them (its own test, Django 5.2's
+    postgresql SQLInsertCompiler.assemble_as_sql) or the key is not set by the database."""
+    meta, quote = model._meta, connection.ops.quote_name
+    concrete = [field for field in meta.concrete_fields if not field.primary_key]
+    internal = [(f.target_field if f.is_relation else f).get_internal_type() for f in concrete]
+    if (
+        not meta.pk.db_returning
+        or any(field.generated or field.has_db_default() for field in concrete)
+        or any(hasattr(field, "get_placeholder") for field in concrete)
+        or any(kind not in connection.data_types for kind in internal)
+    ):
+        _inserts[model] = None
+        return None
+    columns = ", ".join(quote(field.column) for field in concrete)
+    # The parameters of a column's type dropped, as Django does: varchar[], not varchar(50)[].
+    arrays = ", ".join(f"(%s)::{field.db_type(connection).split('(')[0]}[]" for field in concrete)
+    table = quote(meta.db_table)
+    sql = (
+        f"INSERT INTO {table} ({columns}) SELECT * FROM UNNEST({arrays}) "
+        f"RETURNING {table}.{quote(meta.pk.column)}"
+    )
+    _inserts[model] = (sql, concrete)
+    return _inserts[model]
+
+
+def values_stored(model: type[Model], field: str, values: Sequence, **equal) -> set:
+    """Which of `values` the model's rows hold in `field`, among the rows whose fields in
+    `equal` hold those values: set(filter(**equal, <field>__in=values).values_list(field)).
+    On PostgreSQL the statement is built once per model and fields, the values one array (= ANY),
+    so its text is the same for any number of them; elsewhere it is that queryset."""
+    if not values:
+        return set()
+    db = _db()
+    if db.vendor != "postgresql":
+        found = model._base_manager.filter(**equal, **{f"{field}__in": list(values)})
+        return set(found.values_list(field, flat=True))
+    names = tuple(equal)
+    sql, among, equals = _values_stored.get((model, field, names)) or _values_compile(
+        model, field, names
+    )
+    params = [f.get_db_prep_value(equal[name], db) for name, f in zip(names, equals, strict=True)]
+    params.append([among.get_db_prep_value(value, db) for value in values])
+    with _cursor(db) as cursor:
+        cursor.execute(sql, params)
+        return {row[0] for row in cursor.fetchall()}
+
+
+_values_stored: dict[tuple, tuple[str, object, list]] = {}
+
+
+def _values_compile(model: type[Model], field: str, names: tuple[str, ...]):
+    meta, quote = model._meta, connection.ops.quote_name
+    among, equals = meta.get_field(field), [meta.get_field(name) for name in names]
+    conditions = [f"{quote(f.column)} = %s" for f in equals]
+    array = f"%s::{among.db_type(connection).split('(')[0]}[]"
+    conditions.append(f"{quote(among.column)} = ANY({array})")
+    sql = (
+        f"SELECT {quote(among.column)} FROM {quote(meta.db_table)} WHERE {' AND '.join(conditions)}"
+    )
+    _values_stored[(model, field, names)] = (sql, among, equals)
+    return _values_stored[(model, field, names)]
+
+
 def _cursor(db):
     """The connection's cursor (`db`, from _db()), or on PostgreSQL one that prepares every
     statement it runs.

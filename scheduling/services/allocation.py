@@ -452,16 +452,17 @@ def _assign(task: Task, robot: Robot, held: HeldRoute, stops, now: datetime) -> 
     goes first because posting it wakes the robot, which travels while this commits."""
     ack_due_at = now + timedelta(seconds=robot.site.ack_timeout)
     fields = {"robot": robot, "assigned_at": now, "ack_due_at": ack_due_at, "waiting_reason": ""}
+    fields["status"] = TaskStatus.ASSIGNED
     tasks = {**held.tasks, task.code: task}
     plan_post(robot=robot, start=held.route.start, stops=stops, tasks=tasks, now=now)
-    claimed = Task.objects.filter(pk=task.pk, status=TaskStatus.DUE, robot__isnull=True).update(
-        status=TaskStatus.ASSIGNED, **fields
-    )
-    if not claimed:
-        raise _CancelledMeanwhile(task.code)
+    was = {name: getattr(task, name) for name in fields}
     for name, value in fields.items():
         setattr(task, name, value)
-    task.status = TaskStatus.ASSIGNED
+    # Compiled once (core.statements), as a batch claims its tasks.
+    if not row_claim(task, list(fields), status=TaskStatus.DUE, robot=None):
+        for name, value in was.items():
+            setattr(task, name, value)
+        raise _CancelledMeanwhile(task.code)
     task_record(task, old=TaskStatus.DUE, at=now, cause=Cause.ALLOCATION, robot=robot)
     task_deadline_check(task=task, robot=robot)
     return True

@@ -29,7 +29,7 @@ from boards.choices import EventType
 from boards.models import RobotEvent
 from boards.services import AppliedHeartbeat
 from core import changes
-from core.statements import row_update, rows_update
+from core.statements import Statement, row_update, rows_update
 from resources.choices import HOLDING_LEASE_STATES
 from resources.leases import resource_wait_estimate
 from resources.models import Lease, Resource
@@ -271,15 +271,27 @@ def _given_after(robot: Robot, code: str, done: RobotEvent) -> bool:
 
 def _arrivals(robot: Robot, done: list[RobotEvent]) -> list[RobotEvent]:
     """The robot's `arrived` events at the stops of `done` (loaded, unloaded) before them,
-    newest first, in one query: a delivery reported at once has two."""
-    if not done:
-        return []
-    stops = Q()
-    for event in done:
-        stops |= Q(task=event.task, stop=event.stop)
-    before = max(event.id for event in done)
-    found = RobotEvent.objects.filter(stops, robot=robot, type=EventType.ARRIVED, id__lt=before)
-    return list(found.order_by("-id"))
+    newest first: one query per task (a delivery reported at once has two stops of one)."""
+    before = max((event.id for event in done), default=0)
+    stops = {(event.task, event.stop) for event in done}
+    found = [
+        arrived
+        for code in sorted({event.task for event in done})
+        for arrived in _ARRIVALS.all(robot_id=robot.pk, task=code, before=before)
+        if (arrived.task, arrived.stop) in stops
+    ]
+    return sorted(found, key=lambda event: -event.id)
+
+
+# Every delivery reported reads them: compiled once (core.statements).
+_ARRIVALS = Statement(
+    lambda robot_id, task, before: RobotEvent.objects.filter(
+        robot_id=robot_id, type=EventType.ARRIVED, task=task, id__lt=before
+    ),
+    robot_id=int,
+    task=str,
+    before=int,
+)
 
 
 def _dwell_learn(robot: Robot, event: RobotEvent, arrivals: list[RobotEvent]) -> list[str]:

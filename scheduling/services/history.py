@@ -16,7 +16,7 @@ from django.db import transaction
 
 from core import changes
 from core.outbox import send_soon
-from core.statements import row_update
+from core.statements import row_insert, row_update, rows_insert
 from scheduling.models import Task, TaskTransition
 from scheduling.pending import allocation_pending_claim
 
@@ -55,7 +55,7 @@ def task_record(
     if held is not None:
         held.entries.append(entry)
         return entry
-    entry.save(force_insert=True)
+    row_insert(entry)  # entry.save(force_insert=True), its INSERT built once
     changes.changed(kind=changes.TASK, site_id=task.site_id, subject=entry)
     return entry
 
@@ -68,7 +68,7 @@ def tasks_record(moved: list[tuple[Task, object]], *, old: str, at: datetime, ca
 
 def _entries_store(entries: list[TaskTransition]) -> None:
     """Insert history entries in one statement, then tell each (core.changes), in order."""
-    for entry in TaskTransition.objects.bulk_create(entries):
+    for entry in rows_insert(entries):  # bulk_create, its INSERT built once
         changes.changed(kind=changes.TASK, site_id=entry.task.site_id, subject=entry)
 
 

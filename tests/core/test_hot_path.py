@@ -6,12 +6,23 @@ from types import SimpleNamespace
 
 import pytest
 from django.db import DatabaseError, connection, transaction
+from django.db.models import signals
+from django.db.models.functions import Now
 from django.test.utils import CaptureQueriesContext
 from django.utils import timezone
 
+from boards.models import BoardMessage, RobotEvent
 from boards.serializers import HeartbeatSerializer
 from boards.services import board_pending, board_post
-from core.statements import Statement, row_claim, row_update, rows_update
+from core.statements import (
+    Statement,
+    row_claim,
+    row_insert,
+    row_update,
+    rows_insert,
+    rows_update,
+    values_stored,
+)
 from robots.mapcache import site_map
 from robots.models import Robot
 from robots.services import robot_authenticate
@@ -206,3 +217,92 @@ def test_rows_update_writes_what_bulk_update_would_in_one_statement(site):
     assert [stored[r.code].errors for r in robots[:2]] == [["E0"], ["E1"]]
     assert stored["R3"].battery != 0.2  # not among those written
     assert "not written" not in {r.name for r in stored.values()}
+
+
+def _events(robot, at, *ids):
+    """RobotEvents as a heartbeat builds them: a JSON body, values left null and blank."""
+    return [
+        RobotEvent(
+            robot=robot,
+            event_id=event_id,
+            type="loaded",
+            at=at if n else None,
+            task="T-1" if n else "",
+            stop=n or None,
+            data={"nested": [n, None, "ü"], "text": 'a "quoted" value'},
+            received_at=at,
+            boot_id="b",
+            seq=2**40 + n,
+        )
+        for n, event_id in enumerate(ids)
+    ]
+
+
+def _stored(event_ids):
+    """The events' rows as stored, without their keys."""
+    rows = RobotEvent.objects.filter(event_id__in=event_ids).order_by("event_id")
+    return [{k: v for k, v in row.items() if k != "id"} for row in rows.values()]
+
+
+def test_rows_insert_writes_what_bulk_create_would_in_one_statement(robot):
+    at = timezone.now()
+    ours, django = _events(robot, at, "a0", "a1", "a2"), _events(robot, at, "b0", "b1", "b2")
+
+    with CaptureQueriesContext(connection) as queries:
+        inserted = rows_insert(ours)
+        assert rows_insert([]) == []
+    RobotEvent.objects.bulk_create(django)
+
+    assert len(queries.captured_queries) == 1
+    assert inserted == ours
+    assert [event.pk for event in ours] == sorted(event.pk for event in ours)
+    assert all(event.pk and not event._state.adding for event in ours)
+    assert [RobotEvent.objects.get(pk=e.pk).event_id for e in ours] == ["a0", "a1", "a2"]
+    written = [
+        {**row, "event_id": "b" + row["event_id"][1:]} for row in _stored(["a0", "a1", "a2"])
+    ]
+    assert written == _stored(["b0", "b1", "b2"])
+
+
+def test_rows_insert_with_an_expression_for_a_value_is_bulk_create(robot):
+    event = _events(robot, timezone.now(), "e0")[0]
+    event.received_at = Now()
+
+    rows_insert([event])
+
+    stored = RobotEvent.objects.get(event_id="e0")
+    assert abs(stored.received_at - timezone.now()).total_seconds() < 60
+
+
+def test_row_insert_is_create_with_the_receivers_create_would_call(robot):
+    heard = []
+
+    def receiver(sender, instance, created, **kwargs):
+        heard.append((instance.pk, created))
+
+    quiet = row_insert(BoardMessage(robot=robot, type="action", body={"action": "pause"}))
+    signals.post_save.connect(receiver, sender=BoardMessage)
+    try:
+        told = row_insert(BoardMessage(robot=robot, type="action", body={"action": "resume"}))
+    finally:
+        signals.post_save.disconnect(receiver, sender=BoardMessage)
+
+    assert heard == [(told.pk, True)]
+    stored = {m.pk: m.body for m in BoardMessage.objects.filter(robot=robot)}
+    assert stored == {quiet.pk: {"action": "pause"}, told.pk: {"action": "resume"}}
+
+
+def test_values_stored_are_what_the_queryset_finds_in_one_statement(site, robot):
+    other = factories.robot_create(site, "R2")
+    at = timezone.now()
+    rows_insert(_events(robot, at, "x0", "x1") + _events(other, at, "x2"))
+    asked = ["x0", "x2", "x9", "x1", "x0"]
+
+    with CaptureQueriesContext(connection) as queries:
+        found = values_stored(RobotEvent, "event_id", asked, robot_id=robot.pk)
+        assert values_stored(RobotEvent, "event_id", [], robot_id=robot.pk) == set()
+
+    assert found == {"x0", "x1"}
+    orm = RobotEvent.objects.filter(robot_id=robot.pk, event_id__in=asked)
+    assert found == set(orm.values_list("event_id", flat=True))
+    assert len(queries.captured_queries) == 1

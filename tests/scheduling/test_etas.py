@@ -107,6 +107,25 @@ def test_a_delivery_reported_in_one_heartbeat_learns_each_stops_own_dwell(r1, to
     assert r1.pace_dwell == pytest.approx(0.8 * 12.0 + 0.2 * 20.0)  # LEARNING_RATE 0.2
 
 
+def test_each_tasks_dwell_is_learned_from_its_own_arrival(r1, site, to_lab):
+    other = request(site, dropoffs=("3F-WARD",))
+    task_allocate(task_id=other.pk, now=T0)
+    other.refresh_from_db()
+    lab, ward = to_lab.code, other.code
+    report = [  # both picked up at the pharmacy: 12 s for the lab's, 20 s for the ward's
+        event("arrived", ward, 0, at=T0),
+        event("arrived", lab, 0, at=T0 + seconds(1)),
+        event("loaded", lab, 0, at=T0 + seconds(13)),
+        event("loaded", ward, 0, at=T0 + seconds(20)),
+    ]
+
+    beat(r1, now=T0 + seconds(30), at="1F-PHARM", events=report)
+
+    r1.refresh_from_db()
+    assert other.robot_id == r1.pk
+    assert r1.pace_dwell == pytest.approx(0.8 * 12.0 + 0.2 * 20.0)
+
+
 def test_a_robot_twenty_times_faster_than_the_map_is_predicted_so(r1, to_lab):
     code = to_lab.code
     beat(r1, now=T0 + seconds(2), at="1F-PHARM", events=[event("arrived", code, 0, at=T0)])
