@@ -258,8 +258,8 @@ def _arrays_compile(model: type[Model], fields: Sequence[str]) -> tuple[str, lis
 def rows_insert(objects: Sequence[Model]) -> list[Model]:
     """bulk_create(objects) of one model's new objects (no primary key yet), in one statement
     whatever their number; returns them with their keys. On PostgreSQL the statement is built
-    once per model (Django builds its INSERT again on every call: a delivery's report and a
-    nurse's request each insert four times) and the values go as one array per column, as
+    once per model (Django builds its INSERT again on every call, and a nurse's request or a
+    delivery's report inserts several times) and the values go as one array per column, as
     Django's own bulk_create sends them there (INSERT ... SELECT * FROM UNNEST(...)), prepared
     like the other statements. Elsewhere, or where that would not write what bulk_create
     writes (an expression for a value, a column UNNEST cannot carry), it is bulk_create."""
@@ -290,10 +290,15 @@ def rows_insert(objects: Sequence[Model]) -> list[Model]:
 
 
 def row_insert(instance: Model) -> Model:
-    """Model.objects.create(...) of a built instance, with rows_insert's statement; save() where
-    that does more than write the row (pre_save or post_save receivers)."""
+    """Model.objects.create(...) of a built instance: on PostgreSQL with rows_insert's
+    statement, elsewhere and where that does more than write the row (pre_save or post_save
+    receivers) with save(), as create() does."""
     model = type(instance)
-    if signals.pre_save.has_listeners(model) or signals.post_save.has_listeners(model):
+    if (
+        _db().vendor != "postgresql"
+        or signals.pre_save.has_listeners(model)
+        or signals.post_save.has_listeners(model)
+    ):
         instance.save(force_insert=True)
         return instance
     return rows_insert([instance])[0]

@@ -205,14 +205,7 @@ class _Batch:
     def _claim(self, task: Task, new: TaskStops, choice) -> bool:
         robot = self.locked[choice.robot_id]
         ack_due_at = self.now + timedelta(seconds=self.site.ack_timeout)
-        claimed = {"robot": robot, "assigned_at": self.now, "ack_due_at": ack_due_at}
-        claimed |= {"status": TaskStatus.ASSIGNED, "waiting_reason": ""}
-        was = {name: getattr(task, name) for name in claimed}
-        for name, value in claimed.items():
-            setattr(task, name, value)
-        if not row_claim(task, list(claimed), status=TaskStatus.DUE, robot=None):
-            for name, value in was.items():  # cancelled meanwhile
-                setattr(task, name, value)
+        if not _task_claim(task, robot, self.now, ack_due_at):  # cancelled meanwhile
             return False
         held = self.routes[choice.robot_id]
         route = replace(held.route, tasks=(*held.route.tasks, new))
@@ -451,21 +444,28 @@ def _assign(task: Task, robot: Robot, held: HeldRoute, stops, now: datetime) -> 
     """Post the plan, then claim the task (raising _CancelledMeanwhile if that fails): the plan
     goes first because posting it wakes the robot, which travels while this commits."""
     ack_due_at = now + timedelta(seconds=robot.site.ack_timeout)
-    fields = {"robot": robot, "assigned_at": now, "ack_due_at": ack_due_at, "waiting_reason": ""}
-    fields["status"] = TaskStatus.ASSIGNED
     tasks = {**held.tasks, task.code: task}
     plan_post(robot=robot, start=held.route.start, stops=stops, tasks=tasks, now=now)
-    was = {name: getattr(task, name) for name in fields}
-    for name, value in fields.items():
-        setattr(task, name, value)
-    # Compiled once (core.statements), as a batch claims its tasks.
-    if not row_claim(task, list(fields), status=TaskStatus.DUE, robot=None):
-        for name, value in was.items():
-            setattr(task, name, value)
+    if not _task_claim(task, robot, now, ack_due_at):
         raise _CancelledMeanwhile(task.code)
     task_record(task, old=TaskStatus.DUE, at=now, cause=Cause.ALLOCATION, robot=robot)
     task_deadline_check(task=task, robot=robot)
     return True
+
+
+def _task_claim(task: Task, robot: Robot, now: datetime, ack_due_at: datetime) -> bool:
+    """Assign the task to the robot if it is still due and unassigned (its row claimed by a
+    statement compiled once, core.statements); else leave it as it was and return False."""
+    claimed = {"robot": robot, "assigned_at": now, "ack_due_at": ack_due_at}
+    claimed |= {"status": TaskStatus.ASSIGNED, "waiting_reason": ""}
+    was = {name: getattr(task, name) for name in claimed}
+    for name, value in claimed.items():
+        setattr(task, name, value)
+    if row_claim(task, list(claimed), status=TaskStatus.DUE, robot=None):
+        return True
+    for name, value in was.items():
+        setattr(task, name, value)
+    return False
 
 
 def _wait(task: Task, reason: str) -> None:
