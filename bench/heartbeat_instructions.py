@@ -68,10 +68,11 @@ def main() -> None:
     database_option(parser)
     options = parser.parse_args()
     if options.send is not None and options.delivery:
-        _cycles_run(options.database, options.send)
+        _child(_cycler(options.database), options.send, CYCLES_WARMUP)
+        _django_finish()
         return
     if options.send is not None:
-        _heartbeats_send(options.database, options.send, options.robot)
+        _child(_sender(options.database, options.robot), options.send, WARMUP)
         return
     valgrind = shutil.which("valgrind")
     if valgrind is None:
@@ -96,13 +97,13 @@ def _delivery_main(valgrind: str, options) -> None:
     with contextlib.ExitStack() as stack:
         # Each process makes its site, robot and user: a database each.
         urls = [stack.enter_context(temporary_database(options.database)) for _ in range(3)]
-        queries = _cycle_queries(urls[2])
+        queries = _queries_of_one(urls[2], ["--delivery"])
         before, after = _instructions(valgrind, urls[:2], counts, ["--delivery"])
     today = datetime.datetime.now(datetime.UTC).date()
     print(f"delivery instructions benchmark, {today} (UTC), Python {platform.python_version()}")
     print(f"{counted} delivery cycles counted (after {CYCLES_WARMUP}), through the WSGI handler")
     print(f"instructions per delivery cycle: {(after - before) / counted:,.0f}")
-    print(f"queries per delivery cycle: {queries} (a request, three heartbeats)")
+    print(f"queries per delivery cycle: {len(queries)} (a request, three heartbeats)")
 
 
 def _instructions(
@@ -137,50 +138,18 @@ def _instructions(
     return totals
 
 
-def _queries_of_one(database_url: str) -> list[str]:
-    """The verb and table of each statement one heartbeat sends (in a child process)."""
+def _queries_of_one(database_url: str, extra=()) -> list[str]:
+    """The verb and table of each statement one heartbeat (or delivery cycle, extra
+    ["--delivery"]) sends, in a child process."""
     finished = subprocess.run(
-        [sys.executable, __file__, "--send", "-1", "--database", database_url],
+        [sys.executable, __file__, "--send", "-1", *extra, "--database", database_url],
         capture_output=True,
         text=True,
         check=False,
     )
     if finished.returncode != 0:
-        raise SystemExit(f"the heartbeat whose queries are listed failed:\n{finished.stderr}")
+        raise SystemExit(f"the run whose queries are listed failed:\n{finished.stderr}")
     return finished.stdout.split("\n")[-2].split("|")
-
-
-def _cycle_queries(database_url: str) -> int:
-    """How many statements one delivery cycle sends (in a child process)."""
-    finished = subprocess.run(
-        [sys.executable, __file__, "--send", "-1", "--delivery", "--database", database_url],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    if finished.returncode != 0:
-        raise SystemExit(f"the delivery cycle whose queries are counted failed:\n{finished.stderr}")
-    return int(finished.stdout.split("\n")[-2])
-
-
-def _cycles_run(database_url: str, count: int) -> None:
-    """Set up Django on the database, then run `count` delivery cycles; with -1, one cycle
-    after the warm-up, printing how many statements it sent."""
-    cycle = _cycler(database_url)
-    if count >= 0:
-        for _ in range(count):
-            cycle()
-        _django_finish()
-        return
-    from django.db import connection
-    from django.test.utils import CaptureQueriesContext
-
-    for _ in range(CYCLES_WARMUP):
-        cycle()
-    with CaptureQueriesContext(connection) as captured:
-        cycle()
-    _django_finish()
-    print(len(captured.captured_queries))
 
 
 def _cycler(database_url: str):
@@ -241,21 +210,20 @@ class _WsgiTransport:
             return int(statuses[0].split()[0]), answer.decode("utf-8", "replace")
 
 
-def _heartbeats_send(database_url: str, count: int, robot: str = "R1") -> None:
-    """Set up Django on the database, then send `count` heartbeats; with -1, one heartbeat
-    after a warm-up, printing its statements' verbs and tables."""
-    send = _sender(database_url, robot)
+def _child(step, count: int, warmup: int) -> None:
+    """Run `step` (a heartbeat, a delivery cycle) `count` times; with -1, `warmup` times and
+    once more, printing the verb and table of each statement that one sent."""
     if count >= 0:
         for _ in range(count):
-            send()
+            step()
         return
     from django.db import connection
     from django.test.utils import CaptureQueriesContext
 
-    for _ in range(WARMUP):
-        send()
+    for _ in range(warmup):
+        step()
     with CaptureQueriesContext(connection) as captured:
-        send()
+        step()
     print("|".join(_statement_name(query["sql"]) for query in captured.captured_queries))
 
 

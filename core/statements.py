@@ -323,8 +323,7 @@ def _insert_compile(model: type[Model]) -> tuple[str, list] | None:
         _inserts[model] = None
         return None
     columns = ", ".join(quote(field.column) for field in concrete)
-    # The parameters of a column's type dropped, as Django does: varchar[], not varchar(50)[].
-    arrays = ", ".join(f"(%s)::{field.db_type(connection).split('(')[0]}[]" for field in concrete)
+    arrays = ", ".join(f"({_array(field)})" for field in concrete)
     table = quote(meta.db_table)
     sql = (
         f"INSERT INTO {table} ({columns}) SELECT * FROM UNNEST({arrays}) "
@@ -332,6 +331,13 @@ def _insert_compile(model: type[Model]) -> tuple[str, list] | None:
     )
     _inserts[model] = (sql, concrete)
     return _inserts[model]
+
+
+def _array(field) -> str:
+    """A parameter holding an array of the field's values, cast to its column's type without
+    the type's parameters, as Django's bulk insert writes it: varchar[], not varchar(50)[] (a
+    cast to that would cut a longer value short instead of refusing it)."""
+    return f"%s::{field.db_type(connection).split('(')[0]}[]"
 
 
 def values_stored(model: type[Model], field: str, values: Sequence, **equal) -> set:
@@ -363,8 +369,7 @@ def _values_compile(model: type[Model], field: str, names: tuple[str, ...]):
     meta, quote = model._meta, connection.ops.quote_name
     among, equals = meta.get_field(field), [meta.get_field(name) for name in names]
     conditions = [f"{quote(f.column)} = %s" for f in equals]
-    array = f"%s::{among.db_type(connection).split('(')[0]}[]"
-    conditions.append(f"{quote(among.column)} = ANY({array})")
+    conditions.append(f"{quote(among.column)} = ANY({_array(among)})")
     sql = (
         f"SELECT {quote(among.column)} FROM {quote(meta.db_table)} WHERE {' AND '.join(conditions)}"
     )
