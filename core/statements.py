@@ -258,11 +258,12 @@ def _arrays_compile(model: type[Model], fields: Sequence[str]) -> tuple[str, lis
 def rows_insert(objects: Sequence[Model]) -> list[Model]:
     """bulk_create(objects) of one model's new objects (no primary key yet), in one statement
     whatever their number; returns them with their keys. On PostgreSQL the statement is built
-    once per model (Django builds its INSERT again on every call, and a nurse's request or a
-    delivery's report inserts several times) and the values go as one array per column, as
-    Django's own bulk_create sends them there (INSERT ... SELECT * FROM UNNEST(...)), prepared
-    like the other statements. Elsewhere, or where that would not write what bulk_create
-    writes (an expression for a value, a column UNNEST cannot carry), it is bulk_create."""
+    once per model and number of rows (Django builds its INSERT again on every call, and a
+    nurse's request or a delivery's report inserts several times), prepared like the other
+    statements: up to VALUES_ROWS rows, one VALUES row each, as create() writes one; more, one
+    array per column, as Django's own bulk_create sends them there (INSERT ... SELECT * FROM
+    UNNEST(...)). Elsewhere, or where that would not write what bulk_create writes (an
+    expression for a value, a column UNNEST cannot carry), it is bulk_create."""
     if not objects:
         return []
     model, db = type(objects[0]), _db()
@@ -271,17 +272,26 @@ def rows_insert(objects: Sequence[Model]) -> list[Model]:
     )
     if not compiled or any(obj.pk is not None for obj in objects):
         return model._base_manager.bulk_create(objects)
-    sql, concrete = compiled
+    concrete = compiled.concrete
     for obj in objects:
         obj._prepare_related_fields_for_save(operation_name="bulk_create")
     rows = [[field.pre_save(obj, True) for field in concrete] for obj in objects]
     if any(hasattr(value, "resolve_expression") for row in rows for value in row):
         return model._base_manager.bulk_create(objects)
-    columns = [
-        [field.get_db_prep_save(row[n], db) for row in rows] for n, field in enumerate(concrete)
-    ]
+    if len(rows) <= VALUES_ROWS:  # a row's values as scalars: arrays cost psycopg far more
+        sql = compiled.values(len(rows))
+        params = [
+            field.get_db_prep_save(value, db)
+            for row in rows
+            for field, value in zip(concrete, row, strict=True)
+        ]
+    else:
+        sql = compiled.unnest
+        params = [
+            [field.get_db_prep_save(row[n], db) for row in rows] for n, field in enumerate(concrete)
+        ]
     with _cursor(db) as cursor:
-        cursor.execute(sql, columns)
+        cursor.execute(sql, params)
         keys = cursor.fetchall()
     for obj, (key,) in zip(objects, keys, strict=True):
         obj.pk = key
@@ -304,13 +314,34 @@ def row_insert(instance: Model) -> Model:
     return rows_insert([instance])[0]
 
 
-_inserts: dict[type[Model], tuple[str, list] | None] = {}
+VALUES_ROWS = 8  # rows_insert sends at most this many rows as VALUES rows, more as arrays
 
 
-def _insert_compile(model: type[Model]) -> tuple[str, list] | None:
-    """The INSERT of every concrete column but an automatic key, values from one array per
-    column; None where bulk_create would not use UNNEST for them (its own test, Django 5.2's
-    postgresql SQLInsertCompiler.assemble_as_sql) or the key is not set by the database."""
+class _Insert:
+    """A model's INSERT of every concrete column but an automatic key, returning the key: its
+    values as VALUES rows (the statement built once per number of rows) or as arrays."""
+
+    def __init__(self, concrete: list, table: str, key: str, columns: str, arrays: str):
+        self.concrete = concrete
+        self.head, self.returning = f"INSERT INTO {table} ({columns})", f"RETURNING {key}"
+        self.row = f"({', '.join(['%s'] * len(concrete))})"
+        self.unnest = f"{self.head} SELECT * FROM UNNEST({arrays}) {self.returning}"
+        self.by_count: dict[int, str] = {}
+
+    def values(self, count: int) -> str:
+        if count not in self.by_count:
+            rows = ", ".join([self.row] * count)
+            self.by_count[count] = f"{self.head} VALUES {rows} {self.returning}"
+        return self.by_count[count]
+
+
+_inserts: dict[type[Model], _Insert | None] = {}
+
+
+def _insert_compile(model: type[Model]) -> _Insert | None:
+    """The model's _Insert; None where bulk_create would not use UNNEST for its columns (its
+    own test, Django 5.2's postgresql SQLInsertCompiler.assemble_as_sql) or the key is not set
+    by the database."""
     meta, quote = model._meta, connection.ops.quote_name
     concrete = [field for field in meta.concrete_fields if not field.primary_key]
     internal = [(f.target_field if f.is_relation else f).get_internal_type() for f in concrete]
@@ -322,14 +353,14 @@ def _insert_compile(model: type[Model]) -> tuple[str, list] | None:
     ):
         _inserts[model] = None
         return None
-    columns = ", ".join(quote(field.column) for field in concrete)
-    arrays = ", ".join(f"({_array(field)})" for field in concrete)
     table = quote(meta.db_table)
-    sql = (
-        f"INSERT INTO {table} ({columns}) SELECT * FROM UNNEST({arrays}) "
-        f"RETURNING {table}.{quote(meta.pk.column)}"
+    _inserts[model] = _Insert(
+        concrete,
+        table,
+        key=f"{table}.{quote(meta.pk.column)}",
+        columns=", ".join(quote(field.column) for field in concrete),
+        arrays=", ".join(f"({_array(field)})" for field in concrete),
     )
-    _inserts[model] = (sql, concrete)
     return _inserts[model]
 
 

@@ -15,6 +15,7 @@ from boards.models import BoardMessage, RobotEvent
 from boards.serializers import HeartbeatSerializer
 from boards.services import board_pending, board_post
 from core.statements import (
+    VALUES_ROWS,
     Statement,
     row_claim,
     row_insert,
@@ -244,24 +245,30 @@ def _stored(event_ids):
     return [{k: v for k, v in row.items() if k != "id"} for row in rows.values()]
 
 
-def test_rows_insert_writes_what_bulk_create_would_in_one_statement(robot):
+@pytest.mark.parametrize("count", [1, 3, VALUES_ROWS + 2], ids=["one", "values", "arrays"])
+def test_rows_insert_writes_what_bulk_create_would_in_one_statement(robot, count):
+    """Up to VALUES_ROWS rows go as VALUES rows, more as arrays: the same rows either way, and
+    the same prepared (values bound on the server) as when queries are logged (bound here)."""
     at = timezone.now()
-    ours, django = _events(robot, at, "a0", "a1", "a2"), _events(robot, at, "b0", "b1", "b2")
+    mine, theirs = [f"a{n:02d}" for n in range(count)], [f"b{n:02d}" for n in range(count)]
+    ours, django = _events(robot, at, *mine), _events(robot, at, *theirs)
+    prepared = [f"c{n:02d}" for n in range(count)]
 
     with CaptureQueriesContext(connection) as queries:
         inserted = rows_insert(ours)
         assert rows_insert([]) == []
     RobotEvent.objects.bulk_create(django)
+    rows_insert(_events(robot, at, *prepared))  # queries not logged: prepared
 
     assert len(queries.captured_queries) == 1
+    assert ("UNNEST" in queries.captured_queries[0]["sql"]) == (count > VALUES_ROWS)
     assert inserted == ours
     assert [event.pk for event in ours] == sorted(event.pk for event in ours)
     assert all(event.pk and not event._state.adding for event in ours)
-    assert [RobotEvent.objects.get(pk=e.pk).event_id for e in ours] == ["a0", "a1", "a2"]
-    written = [
-        {**row, "event_id": "b" + row["event_id"][1:]} for row in _stored(["a0", "a1", "a2"])
-    ]
-    assert written == _stored(["b0", "b1", "b2"])
+    assert [RobotEvent.objects.get(pk=e.pk).event_id for e in ours] == mine
+    for written in (mine, prepared):
+        renamed = [{**row, "event_id": "b" + row["event_id"][1:]} for row in _stored(written)]
+        assert renamed == _stored(theirs)
 
 
 def test_rows_insert_with_an_expression_for_a_value_is_bulk_create(robot):
