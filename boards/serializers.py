@@ -7,6 +7,7 @@ from rest_framework import serializers
 
 from boards.choices import RESOURCE_EVENT_TYPES, EventType, MessageType, OpenedWith, RequestType
 from core.fields import (
+    StrictBooleanField,
     StrictCharField,
     StrictDateTimeField,
     StrictFloatField,
@@ -144,6 +145,12 @@ class HeartbeatSerializer(FieldsKeptPerThread, serializers.Serializer):
         child=StrictCharField(max_length=64), required=False, max_length=1000, default=list
     )
     requests = AcquireReleaseSerializer(many=True, required=False, max_length=100, default=list)
+    push = StrictBooleanField(
+        required=False,
+        default=False,
+        help_text="the robot's push channel is open (an addition): idle, it may be told a "
+        "longer heartbeat_interval",
+    )
 
 
 # --- The plain heartbeat, validated without the serializer ------------------------------------
@@ -186,8 +193,11 @@ def heartbeat_plain(body, site_map) -> dict | None:
     state = _state_plain(body.get("state"), site_map)
     if state is None:
         return None
+    push = body.get("push", False)
+    if type(push) is not bool:
+        return None
     plain = {"boot_id": boot_id, "seq": seq, "state": state, "events": [], "acks": acks}
-    plain["requests"] = []
+    plain["requests"], plain["push"] = [], push
     if "sent_at" in body:
         try:  # by the serializer's own field: how it reads a date-time is its business
             plain["sent_at"] = _SENT_AT.run_validation(body["sent_at"])

@@ -16,7 +16,7 @@ from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.push import wake_now, wake_on_commit
 from core import memo
 from core.statements import Statement, row_insert, row_update, rows_insert, values_stored
-from robots.cadence import heartbeat_interval_told
+from robots.cadence import heartbeat_interval_idle, heartbeat_interval_told
 from robots.models import Robot
 from robots.services import robot_heartbeat_record
 
@@ -69,7 +69,10 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
     is the newest the server has seen.
     """
     now = now or timezone.now()
-    interval = heartbeat_interval_told(robot.site)
+    told = heartbeat_interval_told(robot.site)
+    # Idle with the push channel open: longer, and its presence follows the longer one even
+    # when the answer then tells it the site's (messages came meanwhile): never flipped for it.
+    interval = heartbeat_interval_idle(told, heartbeat)
     acked = board_ack(robot=robot, public_ids=heartbeat["acks"], now=now)
     events = _events_record(robot, heartbeat, now)
     requests = _requests_record(robot, heartbeat["requests"], now)
@@ -95,11 +98,12 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
     )
     with memo.scope():  # the receivers may move several tasks: their reads shared (core.memo)
         heartbeat_applied(applied=applied)
+    messages = board_pending(robot=robot)
     return HeartbeatReply(
         server_time=now,
-        heartbeat_interval=interval,
+        heartbeat_interval=told if messages else interval,
         map_version=robot.site.map_version,
-        messages=board_pending(robot=robot),
+        messages=messages,
     )
 
 

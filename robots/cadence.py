@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from django.conf import settings
 
 from core.busy import Window, busy
-from robots.choices import Presence
+from robots.choices import Presence, RobotStatus
 from robots.models import Robot, Site
 
 logger = logging.getLogger(__name__)
@@ -128,6 +128,26 @@ def heartbeat_interval_told(site: Site) -> float:
         # 1 and 2.5 s under a ceiling's 4.5 s while heartbeats queued, 2026-11-24).
         _controller.judge(busy.last, base=ceiling)
     return max(_controller.interval, ceiling)
+
+
+def heartbeat_interval_idle(told: float, heartbeat: dict) -> float:
+    """The interval for a robot idle with its push channel open: HEARTBEAT_IDLE_INTERVAL if
+    longer than `told` (heartbeat_interval_told), else `told`.
+
+    Idle: the validated `heartbeat` says `push` (the robot holds the push channel), status
+    idle, nothing on board, and carries no events or requests. Such a robot has nothing to
+    report until the server posts it something, and the push channel wakes it at once when it
+    does, so its heartbeats only say it is still there: a fleet waiting at its docks costs the
+    server a fraction of its heartbeats (bench/latency.py). The heartbeat view tells the site's
+    interval instead when the answer carries messages: the robot has work coming."""
+    if not settings.HEARTBEAT_IDLE_INTERVAL or not heartbeat.get("push"):
+        return told
+    state = heartbeat["state"]
+    if state["status"] != RobotStatus.IDLE or state["load"]:
+        return told
+    if heartbeat["events"] or heartbeat["requests"]:
+        return told
+    return max(told, float(settings.HEARTBEAT_IDLE_INTERVAL))
 
 
 def _ceiling_interval(site: Site) -> float:

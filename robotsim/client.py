@@ -142,6 +142,9 @@ class RobotClient:
         self._event_numbers = iter(range(1, 2**62))
         self._lock = threading.RLock()  # one heartbeat in flight; state changes between them
         self.wake = threading.Event()
+        # The push channel is open (listen_for_wakes): heartbeats say so, and while idle the
+        # server may then tell a longer interval, since it wakes the robot for anything new.
+        self.push_open = False
 
     # --- What the robot tells the server -------------------------------------------------
 
@@ -253,7 +256,7 @@ class RobotClient:
             handler(version)
 
     def _body(self) -> dict:
-        return {
+        body = {
             "boot_id": self.boot_id,
             "seq": self.seq,
             "sent_at": utc_now_iso(),
@@ -262,6 +265,9 @@ class RobotClient:
             "acks": list(self._acks),
             "requests": list(self._requests),
         }
+        if self.push_open:
+            body["push"] = True
+        return body
 
     def _answered(self, body: dict) -> None:
         """The server has everything this heartbeat carried: stop resending it."""
@@ -318,7 +324,9 @@ def listen_for_wakes(client: RobotClient, *, ws_url: str, token: str, stop: thre
 
     Runs until stop is set, reconnecting after failures; losing it costs only latency. After
     every (re)connection the client is woken once: wakes sent while the socket was down are
-    lost, and what they announced is on the board.
+    lost, and what they announced is on the board. While it is open the client's heartbeats
+    say so (`push`); when it closes the client is woken at once, so that its next heartbeat,
+    saying it no longer is, gets the interval of a robot without it.
     """
     from websockets.exceptions import WebSocketException
     from websockets.sync.client import connect
@@ -327,16 +335,27 @@ def listen_for_wakes(client: RobotClient, *, ws_url: str, token: str, stop: thre
     while not stop.is_set():
         try:
             with connect(push_url(ws_url, client.robot), additional_headers=headers) as socket:
-                client.wake.set()
-                while not stop.is_set():
-                    try:
-                        frame = socket.recv(timeout=1.0)
-                    except TimeoutError:
-                        continue
-                    if json.loads(frame).get("type") == "wake":
-                        client.wake.set()
+                _wakes_relayed(client, socket, stop)
         except (OSError, WebSocketException) as exc:
             refused = getattr(getattr(exc, "rcvd", None), "code", None) in (4401, 4403)
             log = logger.warning if refused else logger.debug  # 4401/4403: a wrong token
             log("%s: push channel down (%s); reconnecting", client.robot, exc)
             stop.wait(timeout=2.0)
+
+
+def _wakes_relayed(client: RobotClient, socket, stop: threading.Event) -> None:
+    """Wake the client once, then for every wake frame, until the socket fails or stop is set;
+    the client's heartbeats say the channel is open meanwhile."""
+    client.push_open = True
+    client.wake.set()
+    try:
+        while not stop.is_set():
+            try:
+                frame = socket.recv(timeout=1.0)
+            except TimeoutError:
+                continue
+            if json.loads(frame).get("type") == "wake":
+                client.wake.set()
+    finally:
+        client.push_open = False
+        client.wake.set()  # its next heartbeat at once, without `push`

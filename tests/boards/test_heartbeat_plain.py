@@ -33,7 +33,7 @@ anything = st.one_of(oddities, texts, numbers)
 
 
 PATHS = [
-    *("boot_id", "seq", "sent_at", "state", "events", "acks", "requests"),
+    *("boot_id", "seq", "sent_at", "state", "events", "acks", "requests", "push"),
     *(f"state.{name}" for name in ("status", "floor", "waypoint", "battery", "load")),
     *(f"state.{name}" for name in ("plan_version", "errors", "x", "y", "heading")),
 ]
@@ -64,6 +64,7 @@ def bodies(draw, floors, waypoints):
         "events": draw(st.sampled_from([ABSENT, []])),
         "acks": draw(st.sampled_from([ABSENT, [], ["m-12"], ["m-12", "m-13"]])),
         "requests": draw(st.sampled_from([ABSENT, []])),
+        "push": draw(st.sampled_from([ABSENT, True, False])),
     }
     floor_codes = st.sampled_from(floors)
     replacements = st.one_of(

@@ -247,6 +247,8 @@ def json_type(field) -> str:
         return "number"
     if isinstance(field, serializers.CharField | serializers.ChoiceField):
         return "string"
+    if isinstance(field, serializers.BooleanField):
+        return "boolean"
     raise AssertionError(f"no JSON type known for {field!r}")
 
 
@@ -258,6 +260,7 @@ WRONG_TYPES = {
     "object": ["x", [1], None],
     "list of objects": [{"id": "x"}, "x", None],
     "list of strings": ["x", {"x": 1}, None],
+    "boolean": ["true", 1, 0, None],
 }
 
 

@@ -6,7 +6,13 @@ import pytest
 
 from boards.models import RobotEvent
 from boards.services import board_post
-from robotsim.client import HttpTransport, RefusedError, RobotClient, TransportError
+from robotsim.client import (
+    HttpTransport,
+    RefusedError,
+    RobotClient,
+    TransportError,
+    listen_for_wakes,
+)
 
 
 class FlakyTransport(HttpTransport):
@@ -123,3 +129,36 @@ def test_its_loop_heartbeats_until_stopped(client, robot):
 
     robot.refresh_from_db()
     assert robot.seq == 3
+
+
+def test_it_says_push_while_its_push_channel_is_open_and_is_told_the_idle_interval(
+    client, robot, settings, monkeypatch
+):
+    """Idle with the channel open, the robot is told the idle interval; when the channel closes
+    it is woken at once, and its next heartbeat, without `push`, is told the site's."""
+    from websockets.exceptions import ConnectionClosedError
+
+    settings.HEARTBEAT_IDLE_INTERVAL = 5
+    stop, told = threading.Event(), []
+
+    class Socket:  # the push channel: open until the robot has heartbeated once, then closed
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def recv(self, timeout):
+            client.heartbeat()
+            told.append(client.heartbeat_interval)
+            stop.set()
+            raise ConnectionClosedError(None, None)
+
+    monkeypatch.setattr("websockets.sync.client.connect", lambda url, **kwargs: Socket())
+    listen_for_wakes(client, ws_url="ws://push.invalid", token=robot.token, stop=stop)
+
+    assert told == [5.0]
+    assert client.wake.is_set()
+    assert not client.push_open
+    client.heartbeat()
+    assert client.heartbeat_interval == 1.0
