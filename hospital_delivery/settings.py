@@ -275,7 +275,7 @@ HEARTBEAT_MAX_BYTES = 64 * 1024
 HEARTBEAT_CAPACITY = env_int("HEARTBEAT_CAPACITY", 250, minimum=0)
 # The longest interval ever told; with many robots on a small server, past it heartbeats queue.
 HEARTBEAT_INTERVAL_MAX = env_int("HEARTBEAT_INTERVAL_MAX", 10, minimum=1)
-# Seconds told to a robot idle at its dock (nothing on board, nothing to report) that holds
+# Seconds told to a robot idle (nothing on board, nothing to report) that holds
 # the push channel open, which wakes it at once for anything posted (robots/cadence.py); the
 # site's interval when that is longer. 0: every robot is told its site's interval.
 HEARTBEAT_IDLE_INTERVAL = env_int("HEARTBEAT_IDLE_INTERVAL", 5, minimum=0)

@@ -137,9 +137,9 @@ def heartbeat_interval_idle(told: float, heartbeat: dict) -> float:
     Idle: the validated `heartbeat` says `push` (the robot holds the push channel), status
     idle, nothing on board, and carries no events or requests. Such a robot has nothing to
     report until the server posts it something, and the push channel wakes it at once when it
-    does, so its heartbeats only say it is still there: a fleet waiting at its docks costs the
-    server a fraction of its heartbeats (bench/latency.py). The heartbeat view tells the site's
-    interval instead when the answer carries messages: the robot has work coming."""
+    does, so its heartbeats only say it is still there: at the defaults, a fleet waiting at its
+    docks sends a fifth of the heartbeats. boards.services.heartbeat_apply tells `told` instead
+    when its answer carries messages: the robot has work coming."""
     if not settings.HEARTBEAT_IDLE_INTERVAL or not heartbeat.get("push"):
         return told
     state = heartbeat["state"]
