@@ -1,21 +1,14 @@
 """The heartbeat is the hot path: its query count is asserted, not just measured."""
 
-import math
-
 import pytest
 from django.test import Client
 
 from boards.services import board_post
-from robots import cadence
 from tests import factories
 
 
 @pytest.fixture
-def post_heartbeat(robot, monkeypatch):
-    # The fleet is counted at most every COUNT_SECONDS (robots/cadence.py): on a loaded machine
-    # the heartbeat asserted on came more than that after the first, and counted one query more
-    # (CI, 2026-11-24). Counted once here, as on a machine that keeps up.
-    monkeypatch.setattr(cadence, "COUNT_SECONDS", math.inf)
+def post_heartbeat(robot, fleet_counted_once):
     client = Client()
     url = f"/api/v1/robots/{robot.code}/heartbeat"
 

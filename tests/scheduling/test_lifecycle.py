@@ -180,7 +180,7 @@ def test_a_robot_whose_last_task_fails_goes_to_its_dock(r1, site, enqueued):
 
 
 def test_a_heartbeat_with_a_task_event_needs_eleven_more_queries(
-    r1, site, django_assert_num_queries
+    r1, site, django_assert_num_queries, fleet_counted_once
 ):
     task = request(site)
     task_allocate(task_id=task.pk)
@@ -238,7 +238,7 @@ def test_a_delivery_reported_at_once_writes_its_task_once_and_tells_every_step(r
 
 
 def test_a_busy_resource_on_the_next_leg_costs_three_queries_more(
-    r1, r2, site, django_assert_num_queries
+    r1, r2, site, django_assert_num_queries, fleet_counted_once
 ):
     task = request(site)
     task_allocate(task_id=task.pk)
