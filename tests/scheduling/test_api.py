@@ -12,7 +12,7 @@ from django.utils import timezone
 
 from robots.models import Alert
 from robots.sitefile import site_load
-from scheduling.models import RecurringRequest, Task, TaskTransition
+from scheduling.models import RecurringRequest, Task, TaskStop, TaskTransition
 from tests import factories
 from tests.scheduling.conftest import request
 
@@ -348,3 +348,25 @@ def test_the_schema_describes_the_task_endpoints(api, site, staff):
         "dropoffs",
     }
     assert "repeat" in request_schema["properties"]
+
+
+@pytest.mark.parametrize("later", [False, True], ids=["left to the worker", "scheduled"])
+def test_a_request_not_allocated_in_it_answers_what_it_wrote_without_reading_it_back(
+    api, site, settings, later
+):
+    """Its stops and history as written (scheduling.selectors.task_details_known): the same
+    answer as the task's page gives, without reading the stops and the history again."""
+    settings.ALLOCATE_ON_REQUEST = False
+    api("post", "tasks/", valid())  # the map of this version read and cached
+    when = {"requested_time": (timezone.now() + timedelta(hours=1)).isoformat()} if later else {}
+    tables = [model._meta.db_table for model in (TaskStop, TaskTransition)]
+
+    with CaptureQueriesContext(connection) as queries:
+        created = api("post", "tasks/", valid(pickups=["1F-PHARM"], dropoffs=["2F-LAB"], **when))
+
+    assert created.status_code == 201, created.content
+    read = [q["sql"] for q in queries.captured_queries if q["sql"].lstrip().startswith("SELECT")]
+    assert not [sql for sql in read if any(f'FROM "{table}"' in sql for table in tables)]
+    answer = created.json()
+    assert answer["status"] == ("scheduled" if later else "due")
+    assert answer == api("get", f"tasks/{answer['code']}").json()
