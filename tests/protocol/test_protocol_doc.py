@@ -427,7 +427,9 @@ def test_it_validates_every_heartbeat_request_with_the_servers_serializer(eulji_
         assert serializer.is_valid(), f"{block}: {flatten_errors(serializer.errors)}"
 
 
-def test_it_answers_every_documented_heartbeat_as_the_document_says(client, eulji, tokens):
+def test_it_answers_every_documented_heartbeat_as_the_document_says(
+    client, eulji, tokens, settings
+):
     documented_tasks_create(eulji)
     token = tokens[REPLAYED_ROBOT]
     ordered = tagged(*HEARTBEAT_TAGS, "error-400")
@@ -450,6 +452,11 @@ def test_it_answers_every_documented_heartbeat_as_the_document_says(client, eulj
             continue
         assert status == 200, f"{block}: answered {status} {answer}"
         assert set(answer) == {"server_time", "heartbeat_interval", "map_version", "messages"}
+        if body.get("push"):  # the document's idle robot with its push channel open
+            told = (
+                eulji.heartbeat_interval if answer["messages"] else settings.HEARTBEAT_IDLE_INTERVAL
+            )
+            assert answer["heartbeat_interval"] == told, f"{block}: told {answer}"
         # The document's rule for stale heartbeats: the server keeps the newest state only.
         boot, seq = body["boot_id"], body["seq"]
         if newest is not None and boot == newest["boot_id"]:
