@@ -16,7 +16,8 @@ through the test client, so nothing of the test client is counted. The process r
 callgrind, side by side (robots R1 and R2), sending 20 heartbeats and 20 + N; the difference
 of the two totals, divided by N, leaves out the start (imports, the site loaded, the caches
 filled). The HTTP server and the database server are not counted; the queries a heartbeat
-sends are printed, for those.
+sends are printed, for those, and on PostgreSQL its round trips (libpq's trace,
+core/pgtrace.py: what a web worker waits for).
 
 With --delivery it counts a delivery's cycle instead, what a burst of requests costs the web
 workers per task (bench/latency.py): a staff user's `POST /api/v1/tasks/` allocated in the
@@ -82,13 +83,15 @@ def main() -> None:
         return
     counted = 20 if options.quick else 200
     with temporary_database(options.database) as url:
-        queries = _queries_of_one(url)
+        queries, trips = _queries_of_one(url)
         before, after = _instructions(valgrind, url, (WARMUP, WARMUP + counted))
     today = datetime.datetime.now(datetime.UTC).date()
     print(f"heartbeat instructions benchmark, {today} (UTC), Python {platform.python_version()}")
     print(f"{counted} heartbeats counted (after {WARMUP}), through the WSGI handler")
     print(f"instructions per heartbeat: {(after - before) / counted:,.0f}")
     print(f"queries per heartbeat: {len(queries)} ({', '.join(queries)})")
+    if trips:
+        print(f"round trips to PostgreSQL per heartbeat: {len(trips)} ({', '.join(trips)})")
 
 
 def _delivery_main(valgrind: str, options) -> None:
@@ -97,13 +100,15 @@ def _delivery_main(valgrind: str, options) -> None:
     with contextlib.ExitStack() as stack:
         # Each process makes its site, robot and user: a database each.
         urls = [stack.enter_context(temporary_database(options.database)) for _ in range(3)]
-        queries = _queries_of_one(urls[2], ["--delivery"])
+        queries, trips = _queries_of_one(urls[2], ["--delivery"])
         before, after = _instructions(valgrind, urls[:2], counts, ["--delivery"])
     today = datetime.datetime.now(datetime.UTC).date()
     print(f"delivery instructions benchmark, {today} (UTC), Python {platform.python_version()}")
     print(f"{counted} delivery cycles counted (after {CYCLES_WARMUP}), through the WSGI handler")
     print(f"instructions per delivery cycle: {(after - before) / counted:,.0f}")
     print(f"queries per delivery cycle: {len(queries)} (a request, three heartbeats)")
+    if trips:
+        print(f"round trips to PostgreSQL per delivery cycle: {len(trips)}")
 
 
 def _instructions(
@@ -138,9 +143,11 @@ def _instructions(
     return totals
 
 
-def _queries_of_one(database_url: str, extra=()) -> list[str]:
+def _queries_of_one(database_url: str, extra=()) -> tuple[list[str], list[str]]:
     """The verb and table of each statement one heartbeat (or delivery cycle, extra
-    ["--delivery"]) sends, in a child process."""
+    ["--delivery"]) sends, as Django's query log lists them (its BEGIN and COMMIT included,
+    sent or not); and, on PostgreSQL, the round trips of another (core/pgtrace.py); in a
+    child process."""
     finished = subprocess.run(
         [sys.executable, __file__, "--send", "-1", *extra, "--database", database_url],
         capture_output=True,
@@ -149,7 +156,8 @@ def _queries_of_one(database_url: str, extra=()) -> list[str]:
     )
     if finished.returncode != 0:
         raise SystemExit(f"the run whose queries are listed failed:\n{finished.stderr}")
-    return finished.stdout.split("\n")[-2].split("|")
+    queries, trips = finished.stdout.split("\n")[-3:-1]
+    return queries.split("|"), trips.split("|") if trips else []
 
 
 def _cycler(database_url: str):
@@ -225,6 +233,20 @@ def _child(step, count: int, warmup: int) -> None:
     with CaptureQueriesContext(connection) as captured:
         step()
     print("|".join(_statement_name(query["sql"]) for query in captured.captured_queries))
+    if connection.vendor != "postgresql":
+        print("")
+        return
+    from core.pgtrace import round_trips
+
+    with round_trips() as trips:
+        step()
+    print("|".join(_round_trip_name(trip) for trip in trips))
+
+
+def _round_trip_name(trip: str) -> str:
+    """A simple query's text, shortened: `SET LOCAL synchronous_commit TO OFF; COMMIT`
+    stays whole, a statement prepared reads `prepared`."""
+    return trip if len(trip) <= 60 else _statement_name(trip)
 
 
 def _statement_name(sql: str) -> str:

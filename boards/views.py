@@ -60,7 +60,7 @@ class HeartbeatView(APIView):
     One transaction per heartbeat, opened before authentication so that the query finding the
     robot by its token also locks its row (one query fewer on the robots' hot path). Nothing
     of a refused heartbeat is kept. A heartbeat that only reported its state commits without
-    waiting for the disk (core/commits.py).
+    waiting for the disk, in the same round trip as its `SET LOCAL` (core/commits.py).
     """
 
     authentication_classes = [RobotTokenLockingAuthentication]
@@ -71,9 +71,12 @@ class HeartbeatView(APIView):
 
     def dispatch(self, request, *args, **kwargs):
         started = time.perf_counter()
-        with transaction.atomic():
-            with relaxed_commit_unless_written(tables=REWRITTEN_BY_NEXT_HEARTBEAT):
-                response = super().dispatch(request, *args, **kwargs)
+        # The relaxed commit last in the transaction: it commits a plain heartbeat itself.
+        with (
+            transaction.atomic(),
+            relaxed_commit_unless_written(tables=REWRITTEN_BY_NEXT_HEARTBEAT),
+        ):
+            response = super().dispatch(request, *args, **kwargs)
             if response.status_code >= 400:
                 transaction.set_rollback(True)
         seconds = time.perf_counter() - started  # the commit included

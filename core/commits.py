@@ -41,15 +41,34 @@ class _Writes:
 
 @contextmanager
 def relaxed_commit_unless_written(*, tables: frozenset[str]) -> Iterator[None]:
-    """Inside a transaction (PostgreSQL): if nothing was written in the block but rows of
+    """Last in a transaction (PostgreSQL): if nothing was written in the block but rows of
     `tables`, the transaction's commit does not wait for the disk. A no-op on other
-    databases."""
+    databases, and when the block set the transaction to roll back.
+
+    When the block is the last thing in the outermost atomic block, it commits at its end
+    itself, `SET LOCAL` and `COMMIT` sent in one round trip instead of two (the atomic block's
+    own commit then finds nothing to do): one round trip of six fewer for a plain heartbeat,
+    each a wait on PostgreSQL that holds a sync worker. Nested in another transaction (a test's),
+    it only sets the commit's mode, for whichever commit comes.
+    """
     if connection.vendor != "postgresql":
         yield
         return
     writes = _Writes(tables)
     with connection.execute_wrapper(writes):
         yield
-    if not writes.other:
-        with connection.cursor() as cursor:
-            cursor.execute("SET LOCAL synchronous_commit TO OFF")
+    if writes.other or connection.needs_rollback:
+        return
+    with connection.cursor() as cursor:
+        cursor.execute(_RELAXED_COMMIT if _outermost() else _RELAXED)
+
+
+_RELAXED = "SET LOCAL synchronous_commit TO OFF"
+# Two statements with no parameters: psycopg sends them as one simple query, never prepared.
+_RELAXED_COMMIT = f"{_RELAXED}; COMMIT"
+
+
+def _outermost() -> bool:
+    """In the outermost atomic block: a COMMIT now ends the very transaction that block would
+    commit (one of a test's, which rolls back, would not)."""
+    return len(connection.atomic_blocks) == 1

@@ -19,6 +19,9 @@ def test_it_counts_the_instructions_of_a_heartbeat():
     )
     assert 100_000 < count < 100_000_000  # a Python request: millions, not thousands or billions
     assert re.search(r"queries per heartbeat: \d+ \(BEGIN, SELECT robots_robot", output)
+    # the robot found and locked, updated, its board read; SET LOCAL and COMMIT sent together
+    trips = "5 (BEGIN, prepared, prepared, prepared, SET LOCAL synchronous_commit TO OFF; COMMIT)"
+    assert f"round trips to PostgreSQL per heartbeat: {trips}" in output
 
 
 def test_it_counts_the_instructions_of_a_delivery_cycle():
