@@ -16,7 +16,11 @@ from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.push import wake_now, wake_on_commit
 from core import memo
 from core.statements import Statement, row_insert, row_update, rows_insert, values_stored
-from robots.cadence import heartbeat_interval_idle, heartbeat_interval_told
+from robots.cadence import (
+    heartbeat_interval_idle,
+    heartbeat_interval_spread,
+    heartbeat_interval_told,
+)
 from robots.models import Robot
 from robots.services import robot_heartbeat_record
 
@@ -69,10 +73,7 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
     is the newest the server has seen.
     """
     now = now or timezone.now()
-    told = heartbeat_interval_told(robot.site)
-    # Idle with the push channel open: longer, and its presence follows the longer one even
-    # when the answer then tells it the site's (messages came meanwhile): never flipped for it.
-    interval = heartbeat_interval_idle(told, heartbeat)
+    told, interval = _intervals(robot, heartbeat, now)
     acked = board_ack(robot=robot, public_ids=heartbeat["acks"], now=now)
     events = _events_record(robot, heartbeat, now)
     requests = _requests_record(robot, heartbeat["requests"], now)
@@ -105,6 +106,20 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
         map_version=robot.site.map_version,
         messages=messages,
     )
+
+
+def _intervals(robot: Robot, heartbeat: dict, now: datetime) -> tuple[float, float]:
+    """(the interval the load allows, the one for this heartbeat): the second is longer while
+    the robot is idle with the push channel open, and its presence follows it even when the
+    answer then tells it the first (messages came meanwhile): never flipped for it. Each is
+    spread over robots when longer than the site's (robots.cadence)."""
+    told = heartbeat_interval_told(robot.site)
+    intervals = (told, heartbeat_interval_idle(told, heartbeat))
+    base = robot.site.heartbeat_interval
+    told, idle = (
+        heartbeat_interval_spread(robot.code, each, base=base, now=now) for each in intervals
+    )
+    return told, idle
 
 
 def _events_record(robot: Robot, heartbeat: dict, now: datetime) -> list[RobotEvent]:

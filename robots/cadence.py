@@ -31,7 +31,9 @@ COUNT_SECONDS per process); 0 turns every lengthening off.
 import logging
 import math
 import time
+import zlib
 from dataclasses import dataclass
+from datetime import datetime
 
 from django.conf import settings
 
@@ -148,6 +150,28 @@ def heartbeat_interval_idle(told: float, heartbeat: dict) -> float:
     if heartbeat["events"] or heartbeat["requests"]:
         return told
     return max(told, float(settings.HEARTBEAT_IDLE_INTERVAL))
+
+
+def heartbeat_interval_spread(code: str, interval: float, *, base: float, now: datetime) -> float:
+    """`interval` as told at `now` to robot `code`: one longer than the site's `base` ends at the
+    robot's own moment of the interval (its slot), so robots heartbeat spread over it.
+
+    A robot keeps its phase: it heartbeats the told interval after its last one. Every robot
+    hears a longer interval within one of the site's (all of them within a second at 1 s),
+    so told 4.5 s a fleet spread over one second went on heartbeating together in one second
+    of every 4.5, as many a second as before it was slowed (bench/heartbeat.py, 1,000
+    robots under the default ceiling, 2026-11-25: p99 298 ms at 228 heartbeats a second;
+    README). Each robot's slot is a fixed share of the interval, from its code (crc32: the
+    same in every process), on the wall clock (the same on every node); the robot is told
+    to come at its first slot at least half the interval, and the site's, from now. So it
+    is told between that and one interval more, once, and the interval itself (less the
+    time its heartbeat took to arrive) while it keeps to its slot."""
+    if interval <= base:
+        return interval
+    slot = zlib.crc32(code.encode()) / 2**32 * interval
+    earliest = now.timestamp() + max(base, interval / 2)
+    at = slot + math.ceil((earliest - slot) / interval) * interval
+    return round(at - now.timestamp(), 3)
 
 
 def _ceiling_interval(site: Site) -> float:

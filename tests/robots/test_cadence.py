@@ -41,13 +41,13 @@ def test_over_capacity_every_robot_is_told_a_longer_interval_in_steps(robot_http
     settings.HEARTBEAT_CAPACITY = 10  # aimed at 9/s: 21 robots need 2.33 s, told 2.5 s
     robots_heartbeating(robot.site, 20)
 
-    assert robot_http.heartbeat(1)["heartbeat_interval"] == 2.5
+    assert robot_http.heartbeat(1)["heartbeat_interval"] == factories.interval_told(robot, 2.5)
 
 
 def test_the_interval_falls_back_when_robots_go_offline(robot_http, robot, settings):
     settings.HEARTBEAT_CAPACITY = 10
     robots_heartbeating(robot.site, 20)
-    assert robot_http.heartbeat(1)["heartbeat_interval"] == 2.5
+    assert robot_http.heartbeat(1)["heartbeat_interval"] == factories.interval_told(robot, 2.5)
 
     Robot.objects.exclude(pk=robot.pk).update(presence="offline")
     cadence_forget()  # the next count, as COUNT_SECONDS later
@@ -60,7 +60,7 @@ def test_the_interval_is_capped(robot_http, robot, settings):
     settings.HEARTBEAT_INTERVAL_MAX = 4
     robots_heartbeating(robot.site, 20)
 
-    assert robot_http.heartbeat(1)["heartbeat_interval"] == 4.0
+    assert robot_http.heartbeat(1)["heartbeat_interval"] == factories.interval_told(robot, 4.0)
 
 
 def test_a_robot_that_obeys_a_longer_interval_is_not_flipped(robot_http, robot, settings):
@@ -322,14 +322,14 @@ def test_under_the_ceilings_interval_it_lengthens_from_that_interval(robot_http,
 
     # Saturated while robots are told 2.5 s: 2.5 x 1.0/0.6 -> 4.5 s. Judged from its own 1 s
     # the controller asked 2 s, and robots were told the ceiling's 2.5 s still.
-    assert robot_http.heartbeat(1)["heartbeat_interval"] == 4.5
+    assert robot_http.heartbeat(1)["heartbeat_interval"] == factories.interval_told(robot, 4.5)
 
 
 def test_a_saturated_server_tells_robots_a_longer_interval(robot_http, robot, settings):
     settings.HEARTBEAT_CAPACITY = 1000  # the ceiling far away: the busy share decides
     saturated()
 
-    assert robot_http.heartbeat(1)["heartbeat_interval"] == 2.0
+    assert robot_http.heartbeat(1)["heartbeat_interval"] == factories.interval_told(robot, 2.0)
 
 
 def test_a_robot_that_obeys_a_learned_interval_is_not_flipped(robot_http, robot, settings):
@@ -339,7 +339,7 @@ def test_a_robot_that_obeys_a_learned_interval_is_not_flipped(robot_http, robot,
     robot.refresh_from_db()
     seen = robot.last_seen_at
 
-    assert told == 2.0
+    assert told == factories.interval_told(robot, 2.0)
     presence_sweep(now=seen + timedelta(seconds=3 * told - 0.01))  # past the site's 3 s
     robot.refresh_from_db()
     assert robot.presence == "online"

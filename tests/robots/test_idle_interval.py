@@ -26,12 +26,12 @@ def idle_interval(settings):
 def test_an_idle_robot_with_the_push_channel_is_told_the_idle_interval_and_not_flipped(
     robot_http, robot
 ):
-    assert robot_http.heartbeat(1, push=True)["heartbeat_interval"] == IDLE
-    robot.refresh_from_db()
-    seen = robot.last_seen_at
+    told = robot_http.heartbeat(1, push=True)["heartbeat_interval"]
 
-    assert robot.unreachable_at - seen == timedelta(seconds=3 * IDLE)
-    presence_sweep(now=seen + timedelta(seconds=3 * IDLE - 0.01))  # past the site's 3 s
+    assert told == factories.interval_told(robot, IDLE)  # spread over robots: 2.5 to 7.5 s
+    seen = robot.last_seen_at
+    assert robot.unreachable_at - seen == timedelta(seconds=3 * told)
+    presence_sweep(now=seen + timedelta(seconds=3 * told - 0.01))  # past the site's 3 s
     robot.refresh_from_db()
     assert robot.presence == "online"
 
@@ -59,8 +59,8 @@ def test_an_answer_bringing_a_message_tells_the_sites_interval(robot_http, robot
 
     assert [m["type"] for m in answer["messages"]] == ["action"]
     assert answer["heartbeat_interval"] == 1.0
-    robot.refresh_from_db()  # its presence still follows the longer: never flipped for it
-    assert robot.unreachable_at - robot.last_seen_at == timedelta(seconds=3 * IDLE)
+    idle = factories.interval_told(robot, IDLE)  # its presence still follows the longer
+    assert robot.unreachable_at - robot.last_seen_at == timedelta(seconds=3 * idle)
 
 
 def test_a_sites_own_longer_interval_stands(robot_http, robot):
