@@ -135,6 +135,7 @@ def main(argv: list[str] | None = None) -> int:
             beat=True,
             conn_max_age=60,
             env={"HEARTBEAT_CAPACITY": str(args.capacity)},
+            proxy=True,  # for the push probes, robots as in production; the load goes direct
         )
         # This process posts the probes' plans: its wake-ups must reach the stack's daphne.
         os.environ.update(CHANNELS_PREFIX=stack.channels_prefix, REDIS_URL=stack.redis_url)
@@ -231,17 +232,18 @@ PUSH_DEADLINE = 10.0  # seconds for a probe to receive a plan before it counts a
 
 class PushProbes:
     """A few robots speaking the whole protocol (robotsim's client: heartbeats at the interval
-    told, the push channel, acks) while a row's robots load the server. This process posts a
-    plan to one of them every PUSH_EVERY seconds, as the scheduler would (boards.services
-    board_post: the wake-up goes through Redis to daphne to the robot's socket), and times it
-    from the post to the heartbeat answer that hands it to the robot."""
+    told, the push channel, acks, `Woken-By` on a woken heartbeat) through nginx, as robots in
+    production, while a row's robots load gunicorn directly. This process posts a plan to one of
+    them every PUSH_EVERY seconds, as the scheduler would (boards.services board_post: the
+    wake-up goes through Redis to daphne to the robot's socket), and times it from the post to
+    the heartbeat answer that hands it to the robot."""
 
     def __init__(self, stack: Stack, robots):
         from robotsim.client import RobotClient
 
         self.stack, self.stop = stack, threading.Event()
         self.clients = [
-            RobotClient(server_url=stack.http_url, robot=code, token=token)
+            RobotClient(server_url=stack.proxy_url, robot=code, token=token)
             for code, token in robots
         ]
         self.tokens = dict(robots)
@@ -261,7 +263,7 @@ class PushProbes:
 
         for client in self.clients:
             token = self.tokens[client.robot]
-            kwargs = {"ws_url": self.stack.ws_url, "token": token, "stop": self.stop}
+            kwargs = {"ws_url": self.stack.proxy_ws_url, "token": token, "stop": self.stop}
             threading.Thread(target=listen_for_wakes, args=(client,), kwargs=kwargs).start()
             threading.Thread(target=client.run, kwargs={"stop": self.stop}).start()
         return self
@@ -457,7 +459,9 @@ def _print_table(loads: list[Load]) -> None:
         "heartbeats come more than 3 told intervals apart is flipped by the sweep.\n"
         f"push: {PUSH_PROBES} more robots hold the push channel; a plan is posted to one of them "
         f"every {PUSH_EVERY:g} s\n"
-        "while measured; ms from the post to the heartbeat answer handing it to the robot."
+        "while measured; ms from the post to the heartbeat answer handing it to the robot. They\n"
+        "talk through nginx, which sends a woken heartbeat (Woken-By) to gunicorn's socket for\n"
+        "those; the rows' robots send straight to gunicorn's regular one."
     )
     print("\nheartbeat / bare endpoint under the same load:")
     for heartbeat, bare in zip(loads[::2], loads[1::2], strict=True):

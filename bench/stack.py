@@ -1,7 +1,9 @@
 """The production stack as subprocesses, for benchmarks and end-to-end tests.
 
-What the Procfile runs: gunicorn with N sync workers for HTTP, daphne for websockets, a Celery
-worker (prefork, 2 processes) and, optionally, Celery beat, all on one database and one Redis.
+What the Procfile runs: gunicorn with N sync workers for HTTP (its socket for woken heartbeats
+first, as there), daphne for websockets, a Celery worker (prefork, 2 processes) and, optionally,
+Celery beat and nginx in front (proxy=True: `proxy_url` then reaches everything on one port,
+as robots and browsers do in production), all on one database and one Redis.
 Two stacks can run side by side on one Redis (pytest -n, or a benchmark next to the demo):
 each gets a Celery queue and a Channels prefix of its own.
 
@@ -91,15 +93,19 @@ class Stack:
         beat: bool = False,
         conn_max_age: int | None = None,
         env: dict | None = None,
+        proxy: bool = False,
     ):
         self.database_url = database_url
         self.redis_url = redis_url or os.environ.get("REDIS_URL", "redis://127.0.0.1:6379/0")
         self.web_workers = web_workers
         self.with_daphne, self.with_worker, self.with_beat = daphne, worker, beat
+        self.with_proxy = proxy and daphne
         self.worker_concurrency = worker_concurrency
         self.queue = f"hd-stack-{uuid.uuid4().hex[:10]}"
         self.channels_prefix = self.queue
         self.http_port = free_port()
+        self.woken_port = free_port()  # heartbeats a wake caused (hospital_delivery/proxy.py)
+        self.proxy_port = free_port() if self.with_proxy else None
         self.ws_port = free_port() if daphne else None
         self.logs = Path(tempfile.mkdtemp(prefix="hd-stack-"))
         self.env = {
@@ -123,6 +129,14 @@ class Stack:
         return f"ws://127.0.0.1:{self.ws_port}" if self.ws_port else None
 
     @property
+    def proxy_url(self) -> str | None:
+        return f"http://127.0.0.1:{self.proxy_port}" if self.proxy_port else None
+
+    @property
+    def proxy_ws_url(self) -> str | None:
+        return f"ws://127.0.0.1:{self.proxy_port}" if self.proxy_port else None
+
+    @property
     def description(self) -> str:
         parts = [f"gunicorn {self.web_workers} sync workers"]
         if self.with_daphne:
@@ -131,6 +145,8 @@ class Stack:
             parts.append(f"Celery worker (prefork, {self.worker_concurrency})")
         if self.with_beat:
             parts.append("Celery beat")
+        if self.with_proxy:
+            parts.append("nginx in front")
         return ", ".join(parts)
 
     def __enter__(self) -> Stack:
@@ -152,9 +168,11 @@ class Stack:
             "web",
             [
                 *(python, "-m", "gunicorn", "bench.wsgi:application"),
+                *("--bind", f"127.0.0.1:{self.woken_port}"),
                 *("--bind", f"127.0.0.1:{self.http_port}", "--worker-class", "sync"),
                 *("--workers", str(self.web_workers), "--graceful-timeout", "4"),
                 *("--no-control-socket", "--log-level", "warning"),
+                *("--config", "python:hospital_delivery.gunicorn_hooks"),
             ],
         )
         if self.with_daphne:
@@ -172,11 +190,35 @@ class Stack:
         if self.with_beat:
             schedule = str(self.logs / "celerybeat-schedule")
             self._spawn("beat", [python, "-m", "bench.stack", "beat", self.queue, schedule])
+        if self.with_proxy:
+            self._spawn("proxy", self._nginx_command())
         self._wait_port("web", self.http_port)
         if self.with_daphne:
             self._wait_port("ws", self.ws_port)
+        if self.with_proxy:
+            self._wait_port("proxy", self.proxy_port)
         if self.with_worker:
             self._wait_worker()
+
+    def _nginx_command(self) -> list[str]:
+        """nginx configured as scripts/run.sh configures it (hospital_delivery/proxy.py)."""
+        from hospital_delivery.proxy import Upstreams, nginx_config
+
+        runtime = self.logs / "nginx"
+        for part in ("body", "proxy", "fastcgi", "uwsgi", "scgi"):
+            (runtime / part).mkdir(parents=True)
+        upstreams = Upstreams(
+            listen=f"127.0.0.1:{self.proxy_port}",
+            web=f"127.0.0.1:{self.http_port}",
+            web_woken=f"127.0.0.1:{self.woken_port}",
+            ws=f"127.0.0.1:{self.ws_port}",
+            static_root=REPO / "static",
+            runtime=runtime,
+            user="root" if os.geteuid() == 0 else None,
+        )
+        (runtime / "nginx.conf").write_text(nginx_config(upstreams))
+        options = ("-c", "nginx.conf", "-e", "stderr", "-g", "daemon off;")
+        return ["nginx", "-p", str(runtime), *options]
 
     def _spawn(self, name: str, command: list[str]) -> None:
         log = (self.logs / f"{name}.log").open("wb")
@@ -230,7 +272,8 @@ class Stack:
 
     def stop(self, grace: float = 10.0) -> None:
         """SIGTERM every process group we started (beat first, web last), SIGKILL laggards."""
-        order = [name for name in ("beat", "worker", "ws", "web") if name in self.processes]
+        names = ("proxy", "beat", "worker", "ws", "web")
+        order = [name for name in names if name in self.processes]
         for name in order:
             _signal_group(self.processes[name], signal.SIGTERM)
         deadline = time.monotonic() + grace

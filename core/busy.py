@@ -18,14 +18,27 @@ worker serving one robot a second does not look busy for it). It was not the rea
 ceiling's 4.5 s while the share read under 80 % (2026-11-24, the same with and without it, and
 with the controller judging from the ceiling's interval; README). Two later runs did not
 reproduce that queue (p50 101 and 8.9 ms, README); where those requests waited is not known.
+
+The share reads about 83 % at most here (the rest is what no middleware times), near what the
+pool takes as past it (bench/heartbeat.py, 2026-11-25). The queue tells the two apart:
+connections waiting on the listening sockets for a worker to accept them, a few below what the
+pool takes, hundreds past it, growing. Under gunicorn (hospital_delivery/gunicorn_hooks
+hands each worker's sockets over, listeners_watch) every request's start reads the length of
+that queue from the kernel (TCP_INFO of a listening socket, Linux), and the window carries its
+mean; without them (tests, runserver) it is None.
 """
 
 import math
+import socket
+import struct
 import threading
 import time
 from dataclasses import dataclass
 
 WINDOW_SECONDS = 2.0
+# Linux's struct tcp_info: for a listening socket, tcpi_unacked (after 8 bytes of flags and
+# four 32-bit fields) is the number of connections waiting to be accepted.
+_TCP_INFO_WAITING = 24
 
 
 @dataclass(frozen=True)
@@ -33,6 +46,7 @@ class Window:
     start: float  # clock times (time.monotonic)
     end: float
     share: float  # of the window's wall time spent serving, 0 to 1
+    waiting: float | None = None  # connections waiting for a worker, mean at requests' starts
 
 
 class BusyMeter:
@@ -55,6 +69,14 @@ class BusyMeter:
         self._pauses: list[float] = []  # seconds of each pause in the current window
         self._served = 0  # requests finished in the current window
         self._shortest = math.inf  # the shortest pause ever seen
+        self._waiting = 0  # connections waiting, summed over the window's requests' starts
+        self._sampled = 0  # requests whose start read it
+        self.listeners: list[socket.socket] = []  # sockets whose queue is read (listeners_watch)
+
+    def listeners_watch(self, listeners: list[socket.socket]) -> None:
+        """Read the queue of these listening sockets at every request's start (Linux only)."""
+        if hasattr(socket, "TCP_INFO"):
+            self.listeners = list(listeners)
 
     def started(self) -> None:
         with self._lock:
@@ -67,6 +89,9 @@ class BusyMeter:
                     self._pauses.append(now - self._idle_since)
                     self._shortest = min(self._shortest, now - self._idle_since)
             self._serving += 1
+            if self.listeners:
+                self._waiting += sum(_waiting(listener) for listener in self.listeners)
+                self._sampled += 1
 
     def finished(self) -> None:
         with self._lock:
@@ -79,13 +104,24 @@ class BusyMeter:
             self._idle_since = now
             if now - self._start >= self.window:
                 share = (self._busy + self._overhead()) / (now - self._start)
-                self.last = Window(self._start, now, min(share, 1.0))
+                waiting = self._waiting / self._sampled if self._sampled else None
+                self.last = Window(self._start, now, min(share, 1.0), waiting)
                 self._start, self._busy, self._pauses, self._served = now, 0.0, [], 0
+                self._waiting = self._sampled = 0
 
     def _overhead(self) -> float:
         """Seconds of the window's pauses spent on the work between requests (module doc)."""
         between = min(self._shortest, self._busy / self._served)
         return sum(min(pause, between) for pause in self._pauses)
+
+
+def _waiting(listener: socket.socket) -> int:
+    """Connections waiting on a listening socket for accept() (0 once it is closed)."""
+    try:
+        info = listener.getsockopt(socket.IPPROTO_TCP, socket.TCP_INFO, 32)
+    except OSError:
+        return 0
+    return struct.unpack_from("I", info, _TCP_INFO_WAITING)[0]
 
 
 busy = BusyMeter()

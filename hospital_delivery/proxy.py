@@ -5,6 +5,11 @@ One origin for everything: pages, the API and robots' heartbeats go to gunicorn,
 itself. nginx reads a request's whole body before passing it on, so a client sending one byte
 at a time ties up an nginx connection, not one of gunicorn's few sync workers (gunicorn's own
 documentation asks for such a buffering proxy in front of sync workers).
+
+Heartbeats that a push-channel wake caused (header `Woken-By`, docs/robot-protocol.md) go to
+gunicorn's second socket (`web_woken`), which it binds first: each free worker takes a
+connection waiting there before the next regular one, so a woken robot is answered within
+milliseconds however long the queue of regular heartbeats (bench/heartbeat.py's push columns).
 """
 
 from dataclasses import dataclass
@@ -19,6 +24,7 @@ CLIENT_MAX_BODY = "3m"
 class Upstreams:
     listen: str  # host:port the proxy listens on, e.g. 127.0.0.1:8000
     web: str  # gunicorn, e.g. 127.0.0.1:8002
+    web_woken: str  # gunicorn's socket for woken heartbeats, e.g. 127.0.0.1:8003
     ws: str  # daphne, e.g. 127.0.0.1:8001
     static_root: Path  # the collected static files (settings.STATIC_ROOT)
     runtime: Path  # nginx's pid file and temporary bodies
@@ -56,7 +62,13 @@ http {{
         ''      close;
     }}
 
+    map $http_woken_by $web_lane {{
+        default web_woken;
+        ''      web;
+    }}
+
     upstream web {{ server {upstreams.web}; keepalive 16; }}
+    upstream web_woken {{ server {upstreams.web_woken}; keepalive 4; }}
     upstream ws {{ server {upstreams.ws}; }}
 
     server {{
@@ -78,7 +90,7 @@ http {{
         }}
 
         location / {{
-            proxy_pass http://web;
+            proxy_pass http://$web_lane;
             proxy_http_version 1.1;
             proxy_set_header Connection "";
             proxy_set_header Host $http_host;

@@ -14,14 +14,16 @@ serving requests (core/busy.py, every request, over windows of about 2 s), a sam
 whole pool's since sync workers share one socket; the controller judges the share over
 consecutive windows covering at least the interval in force, in which every robot heartbeats
 once (robots answered at the workers' pace after a backlog come back bunched: a single 2 s
-window would see the bunch or the gap after it). After a judgement busier than HIGH_SHARE
-(requests wait for a worker) the interval is lengthened towards the one that would bring the
-share down to AIM_SHARE, at least one step; after one so idle that one step shorter
-would still leave it under LOW_SHARE (estimated as if the share were proportional to the
-rate), it is shortened by one step, never below the site's own interval. Between the two it
-holds, so a steady load settles on one interval instead of swinging between two; and after a
-change it judges no window until every robot has heard the new interval (the interval before
-the change), so it does not answer one overload twice. No shared state, no query.
+window would see the bunch or the gap after it). After a judgement busier than HIGH_SHARE in
+which requests waited for a worker (where gunicorn hands its listening sockets over, more than
+WAITING_HIGH connections waiting on them on average) the interval is lengthened towards the
+one that would bring the share down to AIM_SHARE, at least one step; after one so idle that
+one step shorter would still leave it under LOW_SHARE (estimated as if the share were
+proportional to the rate), it is shortened by one step, never below the site's own interval.
+Between the two it holds, so a steady load settles on one interval instead of swinging between
+two; and after a change it judges no window until every robot has heard the new interval (the
+interval before the change), so it does not answer one overload twice. No shared state, no
+query.
 
 settings.HEARTBEAT_CAPACITY stays the operator's ceiling: the robots not offline, heartbeating
 at their sites' intervals, are never asked for more than 90 % of it (counted at most every
@@ -53,6 +55,11 @@ TARGET_SHARE = 0.9
 HIGH_SHARE = 0.8  # busier: requests queue for a worker, lengthen
 AIM_SHARE = 0.6  # what lengthening aims at
 LOW_SHARE = 0.4  # shorten only while one step shorter would stay under this
+# Connections waiting for a worker, on average at requests' starts (core/busy.py): under this,
+# a busy share over HIGH_SHARE is a pool near what it takes, not past it. The share reads about
+# 83 % at most, near it as past it; 1,000 robots (bench/heartbeat.py, 2026-11-25) had 1-10
+# connections waiting while served at 1.5 s, 190-800 whenever the interval was lengthened.
+WAITING_HIGH = 20
 
 
 @dataclass
@@ -64,6 +71,7 @@ class Controller:
     judge_from: float = -math.inf  # windows starting earlier saw an interval since changed
     gathered: float = 0.0  # seconds of windows gathered towards the next judgement
     gathered_busy: float = 0.0  # of which spent serving
+    gathered_waiting: float | None = 0.0  # connections waiting x seconds; None: not known
 
     def judge(self, window: Window, *, base: float) -> None:
         """Lengthen or shorten the interval after windows covering one interval; `base`: the
@@ -75,14 +83,22 @@ class Controller:
         # The share over at least one whole interval, in which every robot heartbeats once: a
         # shorter window over robots whose phases bunched (a backlog drained at the workers'
         # pace sends them back together) sees either the bunch or the gap after it.
-        self.gathered += window.end - window.start
-        self.gathered_busy += window.share * (window.end - window.start)
+        seconds = window.end - window.start
+        self.gathered += seconds
+        self.gathered_busy += window.share * seconds
+        if window.waiting is None or self.gathered_waiting is None:
+            self.gathered_waiting = None
+        else:
+            self.gathered_waiting += window.waiting * seconds
         if self.gathered < current:
             return
         share = self.gathered_busy / self.gathered
-        self.gathered = self.gathered_busy = 0.0
+        waiting = None if self.gathered_waiting is None else self.gathered_waiting / self.gathered
+        self.gathered = self.gathered_busy = self.gathered_waiting = 0.0
         shorter = max(current - STEP_SECONDS, base)
-        if share > HIGH_SHARE:
+        logger.debug("heartbeat cadence: busy %.0f%%, waiting %s", 100 * share, waiting)
+        saturated = share > HIGH_SHARE and (waiting is None or waiting > WAITING_HIGH)
+        if saturated:
             wanted = max(current * share / AIM_SHARE, current + STEP_SECONDS)
             new = min(_stepped(wanted), max(settings.HEARTBEAT_INTERVAL_MAX, base))
         elif self.interval > base and share * current / shorter < LOW_SHARE:
@@ -95,8 +111,9 @@ class Controller:
             return
         if max(new, base) != current:
             logger.info(
-                "heartbeat cadence: busy %.0f%%, interval %.1f -> %.1f s",
+                "heartbeat cadence: busy %.0f%%, waiting %s, interval %.1f -> %.1f s",
                 100 * share,
+                "-" if waiting is None else f"{waiting:.1f}",
                 current,
                 max(new, base),
             )

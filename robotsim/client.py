@@ -12,8 +12,9 @@ side:
 * `seq` grows by one per heartbeat and `boot_id` is new each time the software starts;
 * an event or request the server refuses (400 naming it) can be dropped, so that one bad item
   does not block every later heartbeat (drop_refused);
-* with the optional push channel (listen_for_wakes) it heartbeats at once when woken, and
-  once after every (re)connection, for whatever was posted while the socket was down;
+* with the optional push channel (listen_for_wakes) it heartbeats at once when woken, saying
+  so (`Woken-By`: the server answers it ahead of the regular heartbeats), and once after every
+  (re)connection, for whatever was posted while the socket was down;
 * a secure delivery's PIN is checked on the robot, without the network (pin_check, with the
   plan task's `secure`), so a dead zone at the station never keeps a recipient waiting; so is
   the badge of a user of the receiving unit (badge_check: whose it is, to report as
@@ -145,6 +146,9 @@ class RobotClient:
         # The push channel is open (listen_for_wakes): heartbeats say so, and while idle the
         # server may then tell a longer interval, since it wakes the robot for anything new.
         self.push_open = False
+        # The wake's message id while its heartbeat is still to be sent: that heartbeat says so
+        # (Woken-By), and the server answers it ahead of the queue of regular heartbeats.
+        self.woken_by: str | None = None
 
     # --- What the robot tells the server -------------------------------------------------
 
@@ -218,6 +222,11 @@ class RobotClient:
         """Call handler(message) once for each new message of that type."""
         self._handlers.setdefault(message_type, []).append(handler)
 
+    def woken(self, message_id: str | None) -> None:
+        """A wake from the push channel (for `message_id`): heartbeat at once, saying so."""
+        self.woken_by = message_id if isinstance(message_id, str) and message_id else None
+        self.wake.set()
+
     def heartbeat(self) -> list[dict] | None:
         """Send one heartbeat. Returns the messages new to this robot, or None without answer.
 
@@ -227,8 +236,11 @@ class RobotClient:
         with self._lock:
             self.seq += 1
             body = self._body()
+            headers, (woken, self.woken_by) = self.headers, (self.woken_by, None)
+            if woken:
+                headers = {**headers, "Woken-By": woken}
             try:
-                status, reply = self.transport.post(self.url, body, self.headers)
+                status, reply = self.transport.post(self.url, body, headers)
             except TransportError as exc:
                 logger.debug("%s: heartbeat %d unanswered: %s", self.robot, self.seq, exc)
                 return None
@@ -354,8 +366,9 @@ def _wakes_relayed(client: RobotClient, socket, stop: threading.Event) -> None:
                 frame = socket.recv(timeout=1.0)
             except TimeoutError:
                 continue
-            if json.loads(frame).get("type") == "wake":
-                client.wake.set()
+            wake = json.loads(frame)
+            if wake.get("type") == "wake":
+                client.woken(wake.get("message"))
     finally:
         client.push_open = False
         client.wake.set()  # its next heartbeat at once, without `push`

@@ -8,7 +8,7 @@
 # foreground. Ctrl-C stops them all.
 #
 # Environment: DATABASE_URL (default: SQLite file db.sqlite3), REDIS_URL, PORT_HTTP (8000),
-# PORT_WS (8001), WEB_WORKERS (3), SITE_FILE (sites/eulji.yaml), SECRET_KEY (default: generated
+# PORT_WS (8001), PORT_WEB (8002), PORT_WEB_WOKEN (8003), WEB_WORKERS (3), SITE_FILE (sites/eulji.yaml), SECRET_KEY (default: generated
 # once into var/secret_key), METRICS_TOKEN (a bearer token for Prometheus to scrape /metrics),
 # PROMETHEUS_MULTIPROC_DIR (var/prometheus, emptied on every start).
 set -euo pipefail
@@ -21,6 +21,7 @@ source scripts/lib.sh
 export PORT_HTTP="${PORT_HTTP:-8000}"
 export PORT_WS="${PORT_WS:-8001}"
 export PORT_WEB="${PORT_WEB:-8002}"
+export PORT_WEB_WOKEN="${PORT_WEB_WOKEN:-8003}"  # gunicorn's socket for woken heartbeats
 SITE_FILE="${SITE_FILE:-sites/eulji.yaml}"
 
 # is_local_url URL DEFAULT_PORT: URL points at this machine on DEFAULT_PORT (what we can start).
@@ -90,9 +91,9 @@ ensure_secret_key() {
 
 check_ports_free() {
     local port
-    for port in "${PORT_HTTP}" "${PORT_WS}" "${PORT_WEB}"; do
+    for port in "${PORT_HTTP}" "${PORT_WS}" "${PORT_WEB}" "${PORT_WEB_WOKEN}"; do
         if tcp_port_open 127.0.0.1 "${port}"; then
-            die "port ${port} on 127.0.0.1 is already in use (another ./scripts/run.sh?); set PORT_HTTP/PORT_WS/PORT_WEB to use others"
+            die "port ${port} on 127.0.0.1 is already in use (another ./scripts/run.sh?); set PORT_HTTP/PORT_WS/PORT_WEB/PORT_WEB_WOKEN to use others"
         fi
     done
 }
@@ -147,7 +148,7 @@ log "collecting static files"
 python manage.py collectstatic --noinput -v 0
 log "writing the proxy's configuration"
 python manage.py proxy_config --listen "127.0.0.1:${PORT_HTTP}" --web "127.0.0.1:${PORT_WEB}" \
-    --ws "127.0.0.1:${PORT_WS}" --runtime var/nginx >/dev/null
+    --web-woken "127.0.0.1:${PORT_WEB_WOKEN}" --ws "127.0.0.1:${PORT_WS}" --runtime var/nginx >/dev/null
 log "loading site ${SITE_FILE}"
 python manage.py load_site "${SITE_FILE}"
 

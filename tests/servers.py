@@ -69,6 +69,7 @@ def gunicorn(*, workers: int = 2, env: dict | None = None):
         *(sys.executable, "-m", "gunicorn", "hospital_delivery.wsgi:application"),
         *("--bind", f"127.0.0.1:{port}", "--workers", str(workers)),
         *("--no-control-socket", "--log-level", "warning"),
+        *("--config", "python:hospital_delivery.gunicorn_hooks"),
     ]
     server_env = {
         **os.environ,
@@ -86,9 +87,10 @@ def gunicorn(*, workers: int = 2, env: dict | None = None):
 
 
 @contextmanager
-def nginx(*, web_url: str, ws_url: str):
+def nginx(*, web_url: str, ws_url: str, web_woken_url: str | None = None):
     """The proxy in front of them, configured as scripts/run.sh does (hospital_delivery/proxy.py),
-    serving the repository's static/ directory; yields its http:// URL."""
+    serving the repository's static/ directory; yields its http:// URL. Woken heartbeats go to
+    `web_woken_url`, by default `web_url` (gunicorn as tests start it binds one socket)."""
     from hospital_delivery.proxy import Upstreams, nginx_config
 
     port = free_port()
@@ -98,6 +100,7 @@ def nginx(*, web_url: str, ws_url: str):
         upstreams = Upstreams(
             listen=f"127.0.0.1:{port}",
             web=web_url.split("://", 1)[1],
+            web_woken=(web_woken_url or web_url).split("://", 1)[1],
             ws=ws_url.split("://", 1)[1],
             static_root=REPO / "static",
             runtime=Path(runtime),

@@ -72,6 +72,28 @@ def test_it_keeps_serving_while_slow_clients_trickle_their_bodies(stack):
             client.close()
 
 
+def test_it_sends_woken_heartbeats_to_their_own_socket(stack, transactional_db, site):
+    """A heartbeat saying Woken-By goes to gunicorn's socket for woken heartbeats, which its
+    workers take first; every other request to the regular one. Here only one of the two
+    leads to a server, so the one that answers shows which the proxy chose."""
+    web, _proxy = stack
+    robot = factories.robot_create(site, "R1")
+    nowhere = f"http://127.0.0.1:{servers.free_port()}"
+    auth = {"Authorization": f"Bearer {robot.token}"}
+
+    def heartbeat(proxy: str, seq: int, **headers) -> int:
+        url = f"{proxy}/api/v1/robots/R1/heartbeat"
+        body = factories.heartbeat_body(seq)
+        return requests.post(url, json=body, headers={**auth, **headers}, timeout=30).status_code
+
+    with servers.nginx(web_url=nowhere, ws_url=nowhere, web_woken_url=web) as woken_only:
+        assert heartbeat(woken_only, 1, **{"Woken-By": "m-1"}) == 200
+        assert heartbeat(woken_only, 2) == 502
+    with servers.nginx(web_url=web, ws_url=nowhere, web_woken_url=nowhere) as regular_only:
+        assert heartbeat(regular_only, 3) == 200
+        assert heartbeat(regular_only, 4, **{"Woken-By": "m-1"}) == 502
+
+
 def _slow_client(url: str) -> socket.socket:
     """A heartbeat whose body is announced as 100 bytes and sent one byte, then nothing."""
     host, port = url.split("://", 1)[1].split(":")

@@ -4,13 +4,14 @@ presence deadlines follow the interval each robot was told, so a robot that obey
 flipped. The controller is fed windows of the busy share directly: no clock, no sleep."""
 
 import heapq
+import socket
 import time
 from datetime import timedelta
 
 import pytest
 
 from core.busy import BusyMeter, Window, busy
-from robots.cadence import HIGH_SHARE, STEP_SECONDS, Controller, cadence_forget
+from robots.cadence import HIGH_SHARE, STEP_SECONDS, WAITING_HIGH, Controller, cadence_forget
 from robots.models import Robot
 from robots.services import presence_sweep
 from tests import factories
@@ -114,6 +115,29 @@ def test_it_lengthens_the_interval_while_the_workers_are_saturated():
     # has heard it (the 1 s before), and judgements take windows covering one whole interval:
     # the next 2 s window lengthens it again, 2 s x 1.67 -> 3.5 s, which then takes two windows.
     assert told == [2.0, 2.0, 3.5, 3.5, 3.5, 6.0, 6.0]
+
+
+def test_a_busy_share_without_a_queue_does_not_lengthen_it():
+    """Where gunicorn hands over its sockets, the queue on them decides whether the busy share
+    means saturation: about 83 % read both at 95 % of what the pool takes (a few connections
+    waiting) and past it (hundreds), 2026-11-25."""
+    controller = Controller(interval=1.5)
+    busy_without_queue = Window(0.0, WINDOW, 0.9, waiting=WAITING_HIGH / 2)
+    busy_with_queue = Window(WINDOW, 2 * WINDOW, 0.9, waiting=WAITING_HIGH * 10)
+
+    controller.judge(busy_without_queue, base=1.0)
+    assert controller.interval == 1.5
+    controller.judge(busy_with_queue, base=1.0)
+    assert controller.interval == 2.5  # 1.5 s x 0.9/0.6, in steps of 0.5 s
+
+
+def test_a_queue_without_a_busy_share_does_not_lengthen_it():
+    # A moment's bunch of connections while the workers are mostly idle over the interval.
+    controller = Controller(interval=1.5)
+
+    controller.judge(Window(0.0, WINDOW, 0.5, waiting=WAITING_HIGH * 10), base=1.0)
+
+    assert controller.interval == 1.5
 
 
 def test_it_does_not_judge_the_windows_before_every_robot_heard_the_new_interval():
@@ -283,6 +307,31 @@ def test_the_busy_share_is_the_time_spent_serving_over_a_window():
 
     # 2.0 s serving, and the one pause (0.5 s) is the shortest seen: the work between requests.
     assert meter.last == Window(0.0, 2.5, 1.0)
+
+
+def test_a_window_carries_the_mean_queue_on_the_watched_listening_sockets():
+    listener = socket.create_server(("127.0.0.1", 0), backlog=16)
+    queued = [socket.create_connection(listener.getsockname()) for _ in range(3)]
+    clock = iter([0.0, 1.0, 1.5, 2.5]).__next__
+    meter = BusyMeter(clock=clock, window=2.0)
+    meter.listeners_watch([listener])
+    try:
+        meter.started(), meter.finished()  # 3 connections waiting to be accepted
+        listener.accept()[0].close()
+        meter.started(), meter.finished()  # 2
+    finally:
+        for connection in [*queued, listener]:
+            connection.close()
+
+    assert meter.last.waiting == pytest.approx(2.5)
+
+
+def test_without_watched_sockets_the_queue_is_not_known():
+    meter = BusyMeter(clock=iter([0.0, 2.0]).__next__, window=2.0)
+
+    meter.started(), meter.finished()
+
+    assert meter.last.waiting is None
 
 
 def share_of(requests: list[tuple[float, float]]) -> float:

@@ -1,5 +1,6 @@
 """The reference robot client against the live server, over real HTTP."""
 
+import json
 import threading
 
 import pytest
@@ -163,3 +164,39 @@ def test_it_says_push_while_its_push_channel_is_open_and_is_told_the_idle_interv
     assert not client.push_open
     client.heartbeat()
     assert client.heartbeat_interval == 1.0
+
+
+def test_the_heartbeat_a_wake_caused_says_so_and_no_other(client, robot, transport, monkeypatch):
+    """`Woken-By` names the wake's message on the one heartbeat that wake caused (the proxy
+    answers it ahead of the regular heartbeats); the wake after a (re)connection names none."""
+    headers_sent, post = [], transport.post
+
+    def recording(url, body, headers):
+        headers_sent.append(headers.get("Woken-By"))
+        return post(url, body, headers)
+
+    monkeypatch.setattr(transport, "post", recording)
+    stop, posted = threading.Event(), []
+
+    class Socket:  # the push channel: the connection's own wake, one posted message's, stop
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def recv(self, timeout):
+            if posted:
+                stop.set()
+                raise TimeoutError
+            client.heartbeat()  # the one the connection's wake asks for
+            posted.append(board_post(robot=robot, type="action", body={"action": "pause"}))
+            return json.dumps({"type": "wake", "message": posted[0].public_id})
+
+    monkeypatch.setattr("websockets.sync.client.connect", lambda url, **kwargs: Socket())
+    listen_for_wakes(client, ws_url="ws://push.invalid", token=robot.token, stop=stop)
+    answered = client.heartbeat()
+    client.heartbeat()
+
+    assert headers_sent == [None, posted[0].public_id, None]
+    assert [m["id"] for m in answered] == [posted[0].public_id]

@@ -17,6 +17,9 @@ class Command(BaseCommand):
     def add_arguments(self, parser):
         parser.add_argument("--listen", default="127.0.0.1:8000", help="where nginx listens")
         parser.add_argument("--web", default="127.0.0.1:8002", help="gunicorn")
+        parser.add_argument(
+            "--web-woken", default="127.0.0.1:8003", help="gunicorn's socket for woken heartbeats"
+        )
         parser.add_argument("--ws", default="127.0.0.1:8001", help="daphne")
         parser.add_argument("--runtime", default="var/nginx", help="pid file and temporary bodies")
         parser.add_argument("--static-root", default=str(settings.STATIC_ROOT))
@@ -28,6 +31,7 @@ class Command(BaseCommand):
         upstreams = Upstreams(
             listen=options["listen"],
             web=options["web"],
+            web_woken=options["web_woken"],
             ws=options["ws"],
             static_root=Path(options["static_root"]).resolve(),
             runtime=runtime,

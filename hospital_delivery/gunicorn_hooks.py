@@ -1,0 +1,9 @@
+"""gunicorn's server hooks (Procfile: `--config python:hospital_delivery.gunicorn_hooks`)."""
+
+
+def post_worker_init(worker):
+    """Each worker reads the queue on its listening sockets at every request (core/busy.py):
+    how the heartbeat cadence tells a saturated pool from a busy one (robots/cadence.py)."""
+    from core.busy import busy
+
+    busy.listeners_watch([listener.sock for listener in worker.sockets])
