@@ -117,7 +117,7 @@ def _intervals(robot: Robot, heartbeat: dict, now: datetime) -> tuple[float, flo
     intervals = (told, heartbeat_interval_idle(told, heartbeat))
     base = robot.site.heartbeat_interval
     told, idle = (
-        heartbeat_interval_spread(robot.code, each, base=base, now=now) for each in intervals
+        heartbeat_interval_spread(robot.pk, each, base=base, now=now) for each in intervals
     )
     return told, idle
 

@@ -22,13 +22,15 @@ from core.jsonbody import json_parse
 from core.negotiation import JsonOnly
 from robots.authentication import IsRobotInUrl, RobotTokenLockingAuthentication
 from robots.mapcache import site_map
-from robots.models import PresenceChange, Robot, RobotActivity, RobotBoot
+from robots.models import HeartbeatCadence, PresenceChange, Robot, RobotActivity, RobotBoot
 
-# What a heartbeat writes that its robot's next heartbeat writes again: lost in a database
-# crash, nothing is lost (core/commits.py). A heartbeat that wrote anything else (its events,
-# acks or requests, a message posted, a task moved) commits durably as always.
+# What a heartbeat writes that its robot's next heartbeat writes again (or, for the heartbeat
+# cadence's row, the next window judged, robots/cadence.py): lost in a database crash, nothing
+# is lost (core/commits.py). A heartbeat that wrote anything else (its events, acks or requests,
+# a message posted, a task moved) commits durably as always.
 REWRITTEN_BY_NEXT_HEARTBEAT = frozenset(
-    model._meta.db_table for model in (Robot, PresenceChange, RobotActivity, RobotBoot)
+    model._meta.db_table
+    for model in (Robot, PresenceChange, RobotActivity, RobotBoot, HeartbeatCadence)
 )
 
 

@@ -1,34 +1,30 @@
-"""How busy this process is serving requests: the share of wall time in which it was serving at
-least one, over windows of about WINDOW_SECONDS (core.middleware.BusyMiddleware times every
-request, pages and API as well as heartbeats, since they all share the workers).
+"""How loaded this process's pool of web workers is: the requests it serves and the connections
+waiting for a worker, over windows of about WINDOW_SECONDS (core.middleware.BusyMiddleware
+counts every request, pages and API as well as heartbeats, since they all share the workers).
 
-A gunicorn sync worker serves one request at a time and all workers take connections from one
-socket, so each worker's share is a sample of the pool's: near 1 when requests wait for a
-worker (the pool is saturated), lower the more often a worker waits for a request. No shared
-state, no query: two clock readings and a few additions per request.
+gunicorn's sync workers all take connections from the same listening sockets, one at a time.
+Where the kernel lets us read the queue on those sockets (Linux: TCP_INFO of a listening
+socket; hospital_delivery/gunicorn_hooks hands the sockets over, listeners_watch), every
+request's start reads how many connections are still waiting to be accepted. The fewest read
+in a window tells whether the queue ever emptied in it: 0 if a worker found it empty once, more
+when requests arrived faster than the pool served them for the whole window (a standing queue).
+While the queue stands, what this process serves is its share of the pool's capacity, whatever
+the machine: the heartbeat cadence learns it there (robots/cadence.py), with the processor time
+the process used (time.process_time, every thread of it), since what a request costs depends on
+what it is.
 
-Part of each request's cost is outside what a middleware can time: gunicorn reading the request
-and closing the connection, Django's handler around the middleware. Saturated, a worker goes
-from one request to the next after just that, and that time would read as idle, holding the
-share under the controller's 80 % while requests queue. So the shortest pause between two
-requests seen so far, but never more than the window's mean time serving one request, counts
-as busy in every pause: it is what the worker needs between requests however busy it is (a
-worker serving one robot a second does not look busy for it). It was not the reason why, with
-1,000 robots and the default ceiling, bench/heartbeat.py saw heartbeats wait 0.85 s at the
-ceiling's 4.5 s while the share read under 80 % (2026-11-24, the same with and without it, and
-with the controller judging from the ceiling's interval; README). Two later runs did not
-reproduce that queue (p50 101 and 8.9 ms, README); where those requests waited is not known.
+The share of wall time spent inside requests, which this module measured until 2026-11-27, does
+not tell that: part of each request's cost is outside what a middleware can time (gunicorn
+reading the request, and lingering after the answer until the client closes, up to 2 s: 40 % of
+a worker's time with 300 robots sent straight to gunicorn on a 2-core machine, py-spy, README),
+so the share read 29 % while 997 connections waited, and the cadence shortened the interval in
+the middle of an overload (bench/heartbeat.py --timeline, 2026-11-27).
 
-The share reads about 83 % at most here (the rest is what no middleware times), near what the
-pool takes as past it (bench/heartbeat.py, 2026-11-25). The queue tells the two apart:
-connections waiting on the listening sockets for a worker to accept them, a few below what the
-pool takes, hundreds past it, growing. Under gunicorn (hospital_delivery/gunicorn_hooks
-hands each worker's sockets over, listeners_watch) every request's start reads the length of
-that queue from the kernel (TCP_INFO of a listening socket, Linux), and the window carries its
-mean; without them (tests, runserver) it is None.
+Two clock readings, one getsockopt per socket and a few additions per request; no query.
 """
 
-import math
+import multiprocessing
+import os
 import socket
 import struct
 import threading
@@ -45,74 +41,127 @@ _TCP_INFO_WAITING = 24
 class Window:
     start: float  # clock times (time.monotonic)
     end: float
-    share: float  # of the window's wall time spent serving, 0 to 1
+    served: int  # requests the pool finished in the window (this process, without gunicorn)
+    cpu: float = 0.0  # seconds of processor time the pool used in the window (likewise)
     waiting: float | None = None  # connections waiting for a worker, mean at requests' starts
+    # The fewest waiting at any request's start: 0 once the queue emptied in the window, more
+    # when it never did. None where the queue is not read (no gunicorn sockets: tests, runserver).
+    waiting_least: int | None = None
+    pool: int | None = None  # processes taking connections from the same sockets, this one too
+
+    @property
+    def seconds(self) -> float:
+        return self.end - self.start
+
+    @property
+    def rate(self) -> float:
+        """Requests a second the pool served."""
+        return self.served / self.seconds if self.seconds > 0 else 0.0
+
+    @property
+    def queue_stood(self) -> bool:
+        """Whether connections waited for a worker throughout the window."""
+        return bool(self.waiting_least)
+
+
+class Tally:
+    """Requests served and processor seconds used: by this process, or (shared) by every
+    process forked after it was made, in memory they share."""
+
+    def __init__(self, *, shared: bool = False):
+        if shared:
+            self._values, self._lock = multiprocessing.RawArray("d", 2), multiprocessing.Lock()
+        else:
+            self._values, self._lock = [0.0, 0.0], threading.Lock()
+
+    def add(self, *, served: int, cpu: float) -> None:
+        with self._lock:
+            self._values[0] += served
+            self._values[1] += cpu
+
+    def read(self) -> tuple[int, float]:
+        with self._lock:
+            return int(self._values[0]), self._values[1]
 
 
 class BusyMeter:
-    """Busy time summed while at least one request is in progress (threads may overlap), a
-    window closed at the end of the first request that finishes WINDOW_SECONDS after it began."""
+    """Requests counted and the queue read at each start; a window closed at the end of the
+    first request that finishes WINDOW_SECONDS after it began.
 
-    def __init__(self, *, clock=time.monotonic, window: float = WINDOW_SECONDS):
-        self.clock, self.window = clock, window
+    Requests and processor time are this process's, or the whole pool's once the gunicorn
+    master shared them before forking its workers (pool_share): each process's own window
+    scaled by the pool's size read the pool's rate from 93 to 200 a second from one window to
+    the next while it served about 180 (bench/heartbeat.py, 2026-11-27)."""
+
+    def __init__(
+        self, *, clock=time.monotonic, cpu=time.process_time, window: float = WINDOW_SECONDS
+    ):
+        self.clock, self.cpu, self.window = clock, cpu, window
         self._lock = threading.Lock()
+        self.listeners: list[socket.socket] = []  # sockets whose queue is read (listeners_watch)
+        self.pool: int | None = None
+        self.tally = Tally()
+        self._cpu_told = cpu()  # this process's processor time already added to the tally
+        # A forked worker's processor time starts again from 0.
+        os.register_at_fork(after_in_child=lambda: setattr(self, "_cpu_told", self.cpu()))
         self.forget()
 
     def forget(self) -> None:
         """Start measuring afresh (tests)."""
         self.last: Window | None = None  # the latest closed window
-        self._serving = 0
-        self._since = 0.0  # when this process began serving without a pause
         self._start: float | None = None  # of the current window
-        self._busy = 0.0  # seconds served in the current window
-        self._idle_since: float | None = None  # when the last pause between requests began
-        self._pauses: list[float] = []  # seconds of each pause in the current window
-        self._served = 0  # requests finished in the current window
-        self._shortest = math.inf  # the shortest pause ever seen
+        self._tallied = (0, 0.0)  # the tally then
         self._waiting = 0  # connections waiting, summed over the window's requests' starts
-        self._sampled = 0  # requests whose start read it
-        self.listeners: list[socket.socket] = []  # sockets whose queue is read (listeners_watch)
+        self._waiting_least: int | None = None
+        self._sampled = 0  # requests whose start read the queue
 
-    def listeners_watch(self, listeners: list[socket.socket]) -> None:
-        """Read the queue of these listening sockets at every request's start (Linux only)."""
+    def pool_share(self) -> None:
+        """Count requests and processor time for every process forked from now on (gunicorn's
+        master, before it forks its workers)."""
+        self.tally = Tally(shared=True)
+
+    def listeners_watch(self, listeners: list[socket.socket], *, pool: int) -> None:
+        """Read the queue of these listening sockets at every request's start (Linux only);
+        `pool`: the processes that take connections from them, this one included."""
         if hasattr(socket, "TCP_INFO"):
-            self.listeners = list(listeners)
+            self.listeners, self.pool = list(listeners), pool
 
     def started(self) -> None:
+        waiting = sum(_waiting(listener) for listener in self.listeners)
         with self._lock:
-            now = self.clock()
             if self._start is None:
-                self._start = now
-            if not self._serving:
-                self._since = now
-                if self._idle_since is not None:
-                    self._pauses.append(now - self._idle_since)
-                    self._shortest = min(self._shortest, now - self._idle_since)
-            self._serving += 1
+                self._start, self._tallied = self.clock(), self.tally.read()
             if self.listeners:
-                self._waiting += sum(_waiting(listener) for listener in self.listeners)
+                self._waiting += waiting
                 self._sampled += 1
+                least = self._waiting_least
+                self._waiting_least = waiting if least is None else min(least, waiting)
 
     def finished(self) -> None:
         with self._lock:
-            now = self.clock()
-            self._serving -= 1
-            self._served += 1
-            if self._serving:
-                return
-            self._busy += now - self._since
-            self._idle_since = now
+            now, cpu = self.clock(), self.cpu()
+            self.tally.add(served=1, cpu=cpu - self._cpu_told)
+            self._cpu_told = cpu
             if now - self._start >= self.window:
-                share = (self._busy + self._overhead()) / (now - self._start)
-                waiting = self._waiting / self._sampled if self._sampled else None
-                self.last = Window(self._start, now, min(share, 1.0), waiting)
-                self._start, self._busy, self._pauses, self._served = now, 0.0, [], 0
+                tallied = self.tally.read()
+                self.last = self._closed(now, tallied)
+                self._start, self._tallied = now, tallied
                 self._waiting = self._sampled = 0
+                self._waiting_least = None
 
-    def _overhead(self) -> float:
-        """Seconds of the window's pauses spent on the work between requests (module doc)."""
-        between = min(self._shortest, self._busy / self._served)
-        return sum(min(pause, between) for pause in self._pauses)
+    def _closed(self, now: float, tallied: tuple[int, float]) -> Window:
+        served, cpu = tallied[0] - self._tallied[0], tallied[1] - self._tallied[1]
+        if not self._sampled:
+            return Window(self._start, now, served, cpu)
+        return Window(
+            self._start,
+            now,
+            served,
+            cpu,
+            waiting=self._waiting / self._sampled,
+            waiting_least=self._waiting_least,
+            pool=self.pool,
+        )
 
 
 def _waiting(listener: socket.socket) -> int:

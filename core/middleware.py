@@ -5,7 +5,8 @@ any view runs. A NUL character (`%00`) in a path or query parameter reaches look
 Robot.objects.filter(code=...), and PostgreSQL refuses it with an error (a 500). No code,
 page or parameter of ours contains one, so the request is refused as a whole.
 
-BusyMiddleware times each request, for how busy the process is (core/busy.py).
+BusyMiddleware counts each request and reads the queue for a worker at its start, for how loaded
+the pool of web workers is (core/busy.py).
 
 CSPMiddleware is django-csp's, building the policy once instead of twice a response.
 """
@@ -43,9 +44,9 @@ class RefuseNulMiddleware:
 
 
 class BusyMiddleware:
-    """Times every request this process serves (core.busy), first in MIDDLEWARE so the other
-    middleware's work counts too: the heartbeat cadence (robots/cadence.py) reads how busy the
-    web workers are."""
+    """Counts every request this process serves and reads the queue for a worker as it starts
+    (core.busy), first in MIDDLEWARE: the heartbeat cadence (robots/cadence.py) reads how loaded
+    the web workers are."""
 
     def __init__(self, get_response):
         self.get_response = get_response

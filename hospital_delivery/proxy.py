@@ -18,6 +18,11 @@ from pathlib import Path
 # Bodies nginx takes: a heartbeat is at most 64 KiB (protocol); pages and the API post less
 # than this, and the app refuses what it must with its own error shape first.
 CLIENT_MAX_BODY = "3m"
+# Each robot's heartbeat takes two connections while it is proxied (the robot's and gunicorn's)
+# and each push channel two for as long as it is open, pages' sockets the same: 1,024 (nginx's
+# default) ran out with 1,000 robots heartbeating ("worker_connections are not enough", resets;
+# bench/heartbeat.py, 2026-11-27). The open files nginx may hold follow.
+WORKER_CONNECTIONS = 16384
 
 
 @dataclass(frozen=True)
@@ -36,11 +41,12 @@ def nginx_config(upstreams: Upstreams) -> str:
     user = f"user {upstreams.user};\n" if upstreams.user else ""
     return f"""# Written by `manage.py proxy_config` (hospital_delivery/proxy.py): do not edit.
 {user}worker_processes 1;
+worker_rlimit_nofile {2 * WORKER_CONNECTIONS};
 pid {runtime}/nginx.pid;
 error_log stderr warn;
 
 events {{
-    worker_connections 1024;
+    worker_connections {WORKER_CONNECTIONS};
 }}
 
 http {{

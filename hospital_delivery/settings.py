@@ -76,7 +76,7 @@ INSTALLED_APPS = [
 ]
 
 MIDDLEWARE = [
-    # First, so that the time every other middleware takes counts as busy (core/busy.py).
+    # First: counts every request and reads the queue for a worker as it starts (core/busy.py).
     "core.middleware.BusyMiddleware",
     "django.middleware.security.SecurityMiddleware",
     "core.middleware.RefuseNulMiddleware",
@@ -271,7 +271,7 @@ HEARTBEAT_MAX_BYTES = 64 * 1024
 # The operator's ceiling of heartbeats per second the web nodes are asked for together: when the
 # fleet would send more at the sites' intervals, every robot is told a longer heartbeat_interval
 # (robots/cadence.py), as it is whenever the web workers are saturated below it (learned from
-# how busy they are, core/busy.py). 0 turns every lengthening off.
+# the queue of connections waiting for them, core/busy.py). 0 turns every lengthening off.
 HEARTBEAT_CAPACITY = env_int("HEARTBEAT_CAPACITY", 250, minimum=0)
 # The longest interval ever told; with many robots on a small server, past it heartbeats queue.
 HEARTBEAT_INTERVAL_MAX = env_int("HEARTBEAT_INTERVAL_MAX", 10, minimum=1)

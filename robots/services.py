@@ -7,7 +7,7 @@ Whenever a heartbeat or the sweep changes what people see of a robot, it is repo
 live pages (core.changes): at most once per heartbeat, and no query.
 """
 
-from datetime import datetime
+from datetime import datetime, timedelta
 
 from django.db import transaction
 from django.db.models import Q, QuerySet
@@ -17,6 +17,7 @@ from core import changes
 from core.statements import Statement, row_update
 from core.tokens import token_hash, token_new
 from robots.badges import badge_hash
+from robots.cadence import heartbeat_backlog
 from robots.choices import Presence
 from robots.hooks import presence_changed, token_issued
 from robots.models import (
@@ -203,19 +204,26 @@ def robot_connection_lost(*, robot_id: int, graceful: bool, now: datetime | None
 
 
 def presence_sweep(*, now: datetime | None = None) -> int:
-    """Flip the presence of robots whose deadline has passed; returns how many flipped."""
+    """Flip the presence of robots whose deadline has passed; returns how many flipped.
+
+    While heartbeats wait for a web worker, robots are given that long more: a robot's heartbeat
+    may be in the server's own queue, and then the server is late, not the robot (a fleet
+    starting at once had hundreds flipped while their heartbeats queued, 2026-11-27)."""
     now = now or timezone.now()
+    judged_at = now - timedelta(seconds=heartbeat_backlog(now))
     due = Robot.objects.filter(
-        Q(presence=Presence.ONLINE, unreachable_at__lte=now)
-        | Q(presence__in=[Presence.ONLINE, Presence.UNREACHABLE], offline_at__lte=now)
+        Q(presence=Presence.ONLINE, unreachable_at__lte=judged_at)
+        | Q(presence__in=[Presence.ONLINE, Presence.UNREACHABLE], offline_at__lte=judged_at)
     ).select_related("site")
-    return sum(presence_sweep_step(robot=robot, now=now) for robot in due)
+    return sum(presence_sweep_step(robot=robot, now=now, judged_at=judged_at) for robot in due)
 
 
 @transaction.atomic
-def presence_sweep_step(*, robot: Robot, now: datetime) -> int:
-    """Flip one robot read by the sweep, unless its row changed since it was read."""
-    new = robot.presence_at(now)
+def presence_sweep_step(*, robot: Robot, now: datetime, judged_at: datetime | None = None) -> int:
+    """Flip one robot read by the sweep, unless its row changed since it was read: to its
+    presence at `judged_at` (`now` less the server's backlog, presence_sweep), recorded at
+    `now`."""
+    new = robot.presence_at(judged_at or now)
     claimed = Robot.objects.filter(
         pk=robot.pk, presence=robot.presence, last_seen_at=robot.last_seen_at
     ).update(presence=new)

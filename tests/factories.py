@@ -250,4 +250,4 @@ def interval_told(robot: Robot, interval: float) -> float:
     longer than its site's (robots.cadence.heartbeat_interval_spread), from when it was seen."""
     robot.refresh_from_db()
     base = robot.site.heartbeat_interval
-    return heartbeat_interval_spread(robot.code, interval, base=base, now=robot.last_seen_at)
+    return heartbeat_interval_spread(robot.pk, interval, base=base, now=robot.last_seen_at)

@@ -1,5 +1,12 @@
 from robots.models.alerts import Alert, AlertKind
-from robots.models.fleet import PresenceChange, Robot, RobotActivity, RobotBoot, robot_activity
+from robots.models.fleet import (
+    HeartbeatCadence,
+    PresenceChange,
+    Robot,
+    RobotActivity,
+    RobotBoot,
+    robot_activity,
+)
 from robots.models.map import Edge, Floor, Resource, ResourceWaypoint, Site, Waypoint
 from robots.models.membership import SiteMembership
 
@@ -8,6 +15,7 @@ __all__ = [
     "AlertKind",
     "Edge",
     "Floor",
+    "HeartbeatCadence",
     "PresenceChange",
     "Resource",
     "ResourceWaypoint",

@@ -238,3 +238,28 @@ class RobotActivity(models.Model):
 def robot_activity(robot: Robot) -> str:
     """The activity a robot's stored state amounts to (RobotActivity.activity)."""
     return robot.status if robot.presence == Presence.ONLINE else robot.presence
+
+
+class HeartbeatCadence(models.Model):
+    """The heartbeat interval the load asks for and the capacity it was learned from, one row
+    shared by every web process (robots/cadence.py): the process that changes it writes it
+    here, the others adopt it within COUNT_SECONDS. Judged by each process alone, one kept
+    2.5 s for a minute after an overload while the four others were back at 1.5 s
+    (bench/heartbeat.py, 2026-11-25)."""
+
+    interval = models.FloatField(default=0.0)  # seconds; 0: none asked, the sites' own
+    # Of a processor, what one node's pool of web workers used while connections waited for
+    # one: the capacity the interval was judged from (robots/cadence.py), adopted with it.
+    cpu_share = models.FloatField(default=0.0)
+    changed_at = models.DateTimeField(null=True)
+    # Seconds a heartbeat arriving at `backlog_at` waited for a web worker, as the latest web
+    # process to see the queue stand judged it: the presence sweep gives robots that long
+    # more, since their heartbeats are in the server's queue (robots.cadence.heartbeat_backlog).
+    backlog_seconds = models.FloatField(default=0.0)
+    backlog_at = models.DateTimeField(null=True)
+
+    class Meta:
+        db_table = "robots_heartbeat_cadence"
+
+    def __str__(self) -> str:
+        return f"heartbeat interval asked: {self.interval:g} s"

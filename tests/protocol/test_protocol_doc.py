@@ -459,7 +459,8 @@ def test_it_answers_every_documented_heartbeat_as_the_document_says(
             if not answer["messages"]:  # the idle interval, spread as the document says
                 now = parse_datetime(answer["server_time"])
                 idle = settings.HEARTBEAT_IDLE_INTERVAL
-                told = heartbeat_interval_spread(REPLAYED_ROBOT, idle, base=told, now=now)
+                replayed = Robot.objects.get(code=REPLAYED_ROBOT).pk
+                told = heartbeat_interval_spread(replayed, idle, base=told, now=now)
             # server_time is to the millisecond: the interval from it, to a millisecond
             assert answer["heartbeat_interval"] == pytest.approx(told, abs=2e-3), (
                 f"{block}: told {answer}"

@@ -1,20 +1,32 @@
 """The heartbeat interval told to robots follows the load (robots/cadence.py): the robots not
-offline against the operator's ceiling, and how busy the web workers are (core/busy.py); and
+offline against the operator's ceiling, and the queue for a web worker (core/busy.py); and
 presence deadlines follow the interval each robot was told, so a robot that obeys is never
-flipped. The controller is fed windows of the busy share directly: no clock, no sleep."""
+flipped. The controller is fed windows directly, or a model of a pool serving a fleet
+(tests/robots/pool_model.py): no clock, no sleep."""
 
-import heapq
+import math
+import multiprocessing
 import socket
 import time
 from datetime import timedelta
 
 import pytest
+from django.utils import timezone
 
-from core.busy import BusyMeter, Window, busy
-from robots.cadence import HIGH_SHARE, STEP_SECONDS, WAITING_HIGH, Controller, cadence_forget
-from robots.models import Robot
+from core.busy import WINDOW_SECONDS, BusyMeter, Tally, Window, busy
+from robots import cadence
+from robots.cadence import (
+    AIM,
+    PROBE,
+    PROBE_QUIET,
+    Controller,
+    cadence_forget,
+    heartbeat_backlog,
+)
+from robots.models import HeartbeatCadence, Robot
 from robots.services import presence_sweep
 from tests import factories
+from tests.robots import pool_model
 
 
 @pytest.fixture(autouse=True)
@@ -91,230 +103,32 @@ def test_the_cap_never_shortens_a_sites_own_longer_interval(robot_http, robot, s
     assert robot_http.heartbeat(1)["heartbeat_interval"] == 6.0
 
 
-# --- The interval learned from how busy the web workers are --------------------------------------
-
-WINDOW = 2.0  # seconds of each busy-share window the tests feed the controller
+# --- The meter: requests, processor time and the queue for a worker (core/busy.py) -----------
 
 
-def windows(controller, shares, *, base=1.0, start=0.0):
-    """Feed one window per share, back to back; the interval after each."""
-    told = []
-    for n, share in enumerate(shares):
-        at = start + n * WINDOW
-        controller.judge(Window(at, at + WINDOW, share), base=base)
-        told.append(max(controller.interval, base))
-    return told
+def meter_of(moments, cpu=None) -> BusyMeter:
+    """A BusyMeter on a clock reading `moments` one after another (and `cpu` likewise)."""
+    return BusyMeter(
+        clock=iter(moments).__next__, cpu=iter(cpu or [0.0] * (len(moments) + 1)).__next__
+    )
 
 
-def test_it_lengthens_the_interval_while_the_workers_are_saturated():
-    controller = Controller()
+def test_a_window_counts_the_requests_and_processor_time_of_its_two_seconds():
+    meter = meter_of([0.0, 0.5, 2.5], cpu=[0.0, 0.01, 0.03])
 
-    told = windows(controller, [1.0] * 7)
-
-    # Aimed at a share of 0.6: 1 s x 1.0/0.6 -> 2 s; then no window is judged until every robot
-    # has heard it (the 1 s before), and judgements take windows covering one whole interval:
-    # the next 2 s window lengthens it again, 2 s x 1.67 -> 3.5 s, which then takes two windows.
-    assert told == [2.0, 2.0, 3.5, 3.5, 3.5, 6.0, 6.0]
-
-
-def test_a_busy_share_without_a_queue_does_not_lengthen_it():
-    """Where gunicorn hands over its sockets, the queue on them decides whether the busy share
-    means saturation: about 83 % read both at 95 % of what the pool takes (a few connections
-    waiting) and past it (hundreds), 2026-11-25."""
-    controller = Controller(interval=1.5)
-    busy_without_queue = Window(0.0, WINDOW, 0.9, waiting=WAITING_HIGH / 2)
-    busy_with_queue = Window(WINDOW, 2 * WINDOW, 0.9, waiting=WAITING_HIGH * 10)
-
-    controller.judge(busy_without_queue, base=1.0)
-    assert controller.interval == 1.5
-    controller.judge(busy_with_queue, base=1.0)
-    assert controller.interval == 2.5  # 1.5 s x 0.9/0.6, in steps of 0.5 s
-
-
-def test_a_queue_without_a_busy_share_does_not_lengthen_it():
-    # A moment's bunch of connections while the workers are mostly idle over the interval.
-    controller = Controller(interval=1.5)
-
-    controller.judge(Window(0.0, WINDOW, 0.5, waiting=WAITING_HIGH * 10), base=1.0)
-
-    assert controller.interval == 1.5
-
-
-def test_it_does_not_judge_the_windows_before_every_robot_heard_the_new_interval():
-    controller = Controller()
-    windows(controller, [1.0])
-    assert controller.interval == 2.0
-
-    # The window starting at 2 s began before 2 s + the 1 s interval robots were told before.
-    controller.judge(Window(2.5, 4.5, 1.0), base=1.0)
-    assert controller.interval == 2.0
-    controller.judge(Window(3.0, 5.0, 1.0), base=1.0)
-    assert controller.interval == 3.5
-
-
-def test_it_judges_the_share_over_a_whole_interval_not_one_short_window():
-    controller = Controller(interval=6.0)
-
-    # At 6 s, a 2 s window of a bunch of robots, then two of the gap after it: 40 % busy in all.
-    assert windows(controller, [1.0, 0.1, 0.1]) == [6.0, 6.0, 6.0]
-    # Had the first window alone been judged, it would have lengthened it to 10 s.
-
-
-def test_a_window_is_judged_once():
-    controller = Controller(interval=3.0)
-    window = Window(0.0, WINDOW, 0.1)
-
-    controller.judge(window, base=1.0)
-    controller.judge(window, base=1.0)  # not gathered twice: 2 s is not yet the 3 s interval
-
-    assert controller.interval == 3.0
-    controller.judge(Window(WINDOW, 2 * WINDOW, 0.1), base=1.0)
-    assert controller.interval == 1.0
-
-
-def test_it_shortens_towards_the_aim_when_the_load_falls_and_never_below_the_site():
-    controller = Controller(interval=3.0)
-
-    assert windows(controller, [0.05] * 4) == [3.0] + [1.0] * 3  # judged once 3 s are seen
-    assert controller.interval == 1.0
-
-
-def test_after_a_burst_it_comes_back_in_one_judgement_not_step_by_step():
-    controller = Controller(interval=10.0)
-
-    # 20 % busy over the 10 s interval: 10 x 0.2 / 0.6 = 3.3 s, told in whole steps: 3.5 s.
-    assert windows(controller, [0.2] * 5) == [10.0] * 4 + [3.5]
-
-
-def test_it_holds_between_the_thresholds():
-    controller = Controller(interval=3.0)
-
-    # 0.35 at 3 s would be 0.42 at 2.5 s: over LOW_SHARE, so it stays.
-    assert windows(controller, [0.7, 0.5, 0.35, 0.79]) == [3.0] * 4
-
-
-def test_the_learned_interval_is_bounded_by_the_cap(settings):
-    settings.HEARTBEAT_INTERVAL_MAX = 4
-    controller = Controller()
-
-    assert max(windows(controller, [1.0] * 20)) == 4.0
-
-
-def test_the_cap_never_lowers_a_sites_own_longer_interval(settings):
-    settings.HEARTBEAT_INTERVAL_MAX = 4
-    controller = Controller()
-
-    assert set(windows(controller, [1.0] * 10, base=6.0)) == {6.0}
-
-
-def test_a_light_load_never_lengthens_it():
-    controller = Controller()
-
-    assert set(windows(controller, [0.0, 0.3, 0.8, 0.5] * 10)) == {1.0}
-
-
-def pool_share(robots, interval, *, capacity=140.0):
-    """A pool of 5 sync workers on 2 cores taking `capacity` heartbeats/s when saturated: the
-    share of a worker's time serving, as processor sharing makes it (steeper than the rate)."""
-    load = robots / interval / capacity  # of the CPUs
-    if load >= 1:
-        return 1.0
-    in_service = 2 * load / (1 - load * load)
-    return min(in_service / 5, 1.0)
-
-
-@pytest.mark.parametrize("robots", [150, 200, 500, 1000])
-def test_a_steady_load_settles_on_one_interval_in_whole_steps(robots):
-    controller = Controller()
-    told = []
-    for n in range(200):
-        share = pool_share(robots, max(controller.interval, 1.0))
-        controller.judge(Window(n * WINDOW, (n + 1) * WINDOW, share), base=1.0)
-        told.append(max(controller.interval, 1.0))
-
-    settled = told[30:]
-    assert len(set(settled)) == 1, sorted(set(told))
-    assert settled[0] / STEP_SECONDS == int(settled[0] / STEP_SECONDS)
-    # Settled where the workers are not saturated, the load under the 140/s they take.
-    assert pool_share(robots, settled[0]) <= HIGH_SHARE
-    assert robots / settled[0] < 140
-
-
-def test_it_follows_a_load_that_rises_then_falls():
-    controller = Controller()
-    told = []
-    for n, robots in enumerate([100] * 20 + [800] * 40 + [100] * 150):
-        share = pool_share(robots, max(controller.interval, 1.0))
-        controller.judge(Window(n * WINDOW, (n + 1) * WINDOW, share), base=1.0)
-        told.append(max(controller.interval, 1.0))
-
-    assert told[19] == 1.0
-    assert told[59] > 5.7  # 800 robots at 140/s need 5.7 s at least
-    assert told[-1] == 1.0
-    # Loaded, it never goes back under what the load needs once there; unloaded, never up.
-    enough = told.index(next(t for t in told if t > 5.7))
-    assert min(told[enough:60]) > 5.7
-    assert told[60:] == sorted(told[60:], reverse=True)
-
-
-def start_up(controller, robots, *, capacity, seconds):
-    """Robots all starting at 1 Hz against a server taking `capacity` heartbeats/s one after the
-    other (first come, first served), each robot sending its next heartbeat the interval it was
-    told after its answer; the server's busy share closed into windows as core.busy does.
-    Returns (answered at, interval told) per heartbeat."""
-    service = 1.0 / capacity
-    due = [(n / robots, n) for n in range(robots)]  # phases spread over the first second
-    heapq.heapify(due)
-    free = window_start = window_busy = 0.0
-    told = []
-    while due and due[0][0] < seconds:
-        sent, robot = heapq.heappop(due)
-        free = max(sent, free) + service
-        window_busy += service
-        if free - window_start >= WINDOW:
-            share = min(window_busy / (free - window_start), 1.0)
-            controller.judge(Window(window_start, free, share), base=1.0)
-            window_start, window_busy = free, 0.0
-        interval = max(controller.interval, 1.0)
-        told.append((free, interval))
-        heapq.heappush(due, (free + interval, robot))
-    return told
-
-
-@pytest.mark.parametrize(("robots", "capacity"), [(500, 140), (1000, 200)])
-def test_after_a_start_up_backlog_it_settles_instead_of_swinging(robots, capacity):
-    # The first second's heartbeats queue; answered at the server's pace, the robots come back
-    # bunched, and a 2 s window sees the bunch or the gap after it. Judged on such windows the
-    # interval swung between 6 and 10 s for as long as it ran (2026-11-24).
-    told = start_up(Controller(), robots, capacity=capacity, seconds=300)
-
-    settled = {interval for at, interval in told if at > 60}
-    assert len(settled) == 1, sorted(settled)
-    (interval,) = settled
-    assert 0.4 < robots / interval / capacity <= HIGH_SHARE  # neither saturated nor idle
-
-
-def test_the_busy_share_is_the_time_spent_serving_over_a_window():
-    clock = iter([0.0, 0.5, 1.0, 1.2, 1.5, 2.5]).__next__
-    meter = BusyMeter(clock=clock, window=2.0)
-
-    meter.started(), meter.finished()  # 0.5 s serving
-    meter.started()  # two requests overlap from 1.0 to 2.5: 1.5 s serving, counted once
-    meter.started()
+    meter.started(), meter.finished()  # 0.5 s in: 10 ms of processor
     assert meter.last is None
-    meter.finished()
-    meter.finished()
+    meter.started(), meter.finished()  # 2.5 s in: 20 ms more; the window closes
 
-    # 2.0 s serving, and the one pause (0.5 s) is the shortest seen: the work between requests.
-    assert meter.last == Window(0.0, 2.5, 1.0)
+    assert meter.last == Window(0.0, 2.5, served=2, cpu=pytest.approx(0.03))
+    assert meter.last.rate == pytest.approx(0.8)
 
 
-def test_a_window_carries_the_mean_queue_on_the_watched_listening_sockets():
+def test_a_window_carries_the_queue_on_the_watched_listening_sockets():
     listener = socket.create_server(("127.0.0.1", 0), backlog=16)
     queued = [socket.create_connection(listener.getsockname()) for _ in range(3)]
-    clock = iter([0.0, 1.0, 1.5, 2.5]).__next__
-    meter = BusyMeter(clock=clock, window=2.0)
-    meter.listeners_watch([listener])
+    meter = meter_of([0.0, 1.0, 2.5])
+    meter.listeners_watch([listener], pool=4)
     try:
         meter.started(), meter.finished()  # 3 connections waiting to be accepted
         listener.accept()[0].close()
@@ -323,80 +137,376 @@ def test_a_window_carries_the_mean_queue_on_the_watched_listening_sockets():
         for connection in [*queued, listener]:
             connection.close()
 
-    assert meter.last.waiting == pytest.approx(2.5)
+    assert (meter.last.waiting, meter.last.waiting_least) == (pytest.approx(2.5), 2)
+    assert meter.last.queue_stood
+    assert meter.last.pool == 4
+
+
+def test_a_queue_that_emptied_once_in_the_window_did_not_stand():
+    window = Window(0.0, 2.0, served=100, waiting=40.0, waiting_least=0, pool=5)
+
+    assert not window.queue_stood
 
 
 def test_without_watched_sockets_the_queue_is_not_known():
-    meter = BusyMeter(clock=iter([0.0, 2.0]).__next__, window=2.0)
+    meter = meter_of([0.0, 2.0])
 
     meter.started(), meter.finished()
 
-    assert meter.last.waiting is None
+    assert (meter.last.waiting, meter.last.waiting_least, meter.last.pool) == (None, None, None)
 
 
-def share_of(requests: list[tuple[float, float]]) -> float:
-    """The share a BusyMeter reads from requests served one after another, (start, end) each."""
-    clock = iter([moment for request in requests for moment in request]).__next__
-    meter = BusyMeter(clock=clock, window=2.0)
-    for _ in requests:
-        meter.started(), meter.finished()
-    return meter.last.share
+def _requests_served(tally: Tally, count: int) -> None:
+    for _ in range(count):
+        tally.add(served=1, cpu=0.001)
 
 
-def test_a_worker_going_from_request_to_request_is_read_as_saturated():
-    # 0.15 s per request, then 0.05 s outside what the middleware times (gunicorn reading the
-    # next request, closing the last connection) before the next: saturated, not 75 % busy.
-    requests = [(n * 0.2, n * 0.2 + 0.15) for n in range(11)]
+def test_a_tally_shared_before_forking_counts_every_processs_requests():
+    tally = Tally(shared=True)
+    children = [
+        multiprocessing.get_context("fork").Process(target=_requests_served, args=(tally, 100))
+        for _ in range(3)
+    ]
+    for child in children:
+        child.start()
+    for child in children:
+        child.join(timeout=30)
 
-    assert share_of(requests) == pytest.approx(1.0)
-
-
-def test_pauses_count_as_busy_only_up_to_the_shortest_and_to_a_requests_time():
-    # One robot a second: 10 ms requests, 990 ms pauses of which 10 ms count (a request's time).
-    assert share_of([(n, n + 0.01) for n in range(4)]) == pytest.approx((0.03 + 0.02) / 2.01)
-    # Light load with one request straight after another (20 ms): every pause counts 20 ms.
-    requests = [(0.0, 0.1), (0.12, 0.22), (1.12, 1.22), (2.12, 2.22)]
-    assert share_of(requests) == pytest.approx((0.4 + 3 * 0.02) / 2.22)
-
-
-def saturated():
-    """As if the process serving heartbeats had just spent a whole window serving."""
-    busy.last = Window(time.monotonic() - WINDOW, time.monotonic(), 1.0)
+    served, cpu = tally.read()
+    assert (served, cpu) == (300, pytest.approx(0.3))
 
 
-def test_under_the_ceilings_interval_it_lengthens_from_that_interval(robot_http, robot, settings):
-    settings.HEARTBEAT_CAPACITY = 10  # 21 robots: 2.5 s by the ceiling
-    robots_heartbeating(robot.site, 20)
-    busy.last = Window(time.monotonic() - 3.0, time.monotonic(), 1.0)  # one 2.5 s interval
+# --- The interval learned from the queue (robots.cadence.Controller) ----------------------------
 
-    # Saturated while robots are told 2.5 s: 2.5 x 1.0/0.6 -> 4.5 s. Judged from its own 1 s
-    # the controller asked 2 s, and robots were told the ceiling's 2.5 s still.
-    assert robot_http.heartbeat(1)["heartbeat_interval"] == factories.interval_told(robot, 4.5)
+
+def stood(*, at=0.0, waiting=800.0, rate=200.0, cost=0.006, pool=5, least=None) -> Window:
+    """A window of WINDOW_SECONDS from `at` whose queue stood, the pool serving `rate` a second,
+    each request costing `cost` seconds of processor."""
+    served = round(rate * WINDOW_SECONDS)
+    least = int(waiting // 2) if least is None else least
+    return Window(at, at + WINDOW_SECONDS, served, served * cost, waiting, least, pool)
+
+
+def calm(*, at=0.0, rate=100.0, cost=0.005, waiting=1.0, pool=5) -> Window:
+    """A window without a standing queue."""
+    served = round(rate * WINDOW_SECONDS)
+    return Window(at, at + WINDOW_SECONDS, served, served * cost, waiting, 0, pool)
+
+
+def test_without_the_queue_nothing_is_learned():
+    # runserver and the tests' servers hand no sockets over: no queue, no judgement.
+    controller = Controller()
+
+    controller.judge(Window(0.0, 2.0, served=400, cpu=2.0), base=1.0, robots=1000)
+
+    assert (controller.interval, controller.cpu_share) == (0.0, 0.0)
+
+
+def test_a_standing_queue_is_answered_in_one_step_by_littles_law():
+    controller = Controller()
+
+    controller.judge(stood(waiting=800, rate=200), base=1.0, robots=1000)
+
+    # 800 waiting, 5 being served, 200 a second answered at 1 s: 1,005 robots, which at AIM of
+    # the 200 a second served need 1,005 / (0.92 x 200) = 5.46 s, told in steps of 0.05 s.
+    assert controller.fleet == 1005 - 5  # never more than the 1,000 robots counted
+    assert controller.interval == 5.45
+    assert controller.cpu_share == pytest.approx(200 * 0.006)
+
+
+def test_a_queue_that_emptied_once_lengthens_nothing():
+    controller = Controller()
+
+    controller.judge(calm(rate=190, waiting=40), base=1.0, robots=1000)
+
+    assert controller.interval == 0.0
+
+
+def test_while_the_robots_hear_it_another_standing_window_asks_no_more():
+    controller = Controller()
+    controller.judge(stood(waiting=800), base=1.0, robots=1000)
+
+    # The same backlog draining: the fleet judged before stands, the capacity is the same.
+    controller.judge(stood(at=2.0, waiting=600), base=1.0, robots=1000)
+
+    assert controller.interval == 5.45
+
+
+def test_a_moments_dip_in_the_processor_the_pool_gets_is_not_learned():
+    controller = Controller()
+    controller.judge(stood(waiting=800, rate=200), base=1.0, robots=1000)
+
+    # Another process took half a processor for two seconds: 120 served where 200 were.
+    controller.judge(stood(at=2.0, waiting=700, rate=120), base=1.0, robots=1000)
+
+    assert controller.cpu_share == pytest.approx(200 * 0.006)
+    assert controller.interval == 5.45
+    # Past SHARE_MEMORY, the pool's share is what it is now.
+    controller.judge(stood(at=cadence.SHARE_MEMORY + 4, rate=120), base=1.0, robots=1000)
+    assert controller.cpu_share == pytest.approx(120 * 0.006)
+
+
+def test_heavier_requests_mean_a_smaller_capacity_and_lighter_ones_a_larger():
+    controller = Controller()
+    # A fleet starting: every first heartbeat of a boot costs three times a plain one.
+    controller.judge(stood(waiting=900, rate=70, cost=0.018), base=1.0, robots=1000)
+    assert controller.interval == 10.0  # 1,000 / (0.92 x 70) = 15.5 s, capped
+
+    # Once the robots heard it (1.5 s after the 1 s they were told, and the queue's 13 s),
+    # plain heartbeats over one whole interval without a queue: the capacity for them is the
+    # same share of the processor over 6 ms x LOADED_COST a request: 191 a second.
+    judged_from = 2.0 + 905 / 70 + 1.5
+    for n in range(5):
+        controller.judge(calm(at=judged_from + 2 * n, rate=100, cost=0.006), base=1.0, robots=1000)
+
+    capacity = 70 * 0.018 / (0.006 * cadence.LOADED_COST)
+    fleet = min(1 + 5 + 100 * 10.0, 1000)  # Little's count, never more than the robots
+    steps = math.ceil(fleet / (AIM * capacity) / cadence.LEARNED_STEP)  # 5.69 s: 5.7 s
+    assert controller.interval == pytest.approx(steps * cadence.LEARNED_STEP)
+    assert controller.interval < 6.0
+
+
+def test_it_shortens_only_once_the_robots_heard_the_interval_and_over_a_whole_one():
+    controller = Controller(interval=6.0, cpu_share=1.2, fleet=1000, judge_from=10.0)
+
+    controller.judge(calm(at=8.0, rate=50), base=1.0, robots=1000)  # began before 10 s
+    controller.judge(calm(at=10.0, rate=50), base=1.0, robots=1000)
+    controller.judge(calm(at=12.0, rate=50), base=1.0, robots=1000)
+    assert controller.interval == 6.0  # 4 s gathered, not yet the 6 s interval
+
+    controller.judge(calm(at=14.0, rate=50), base=1.0, robots=1000)
+
+    # 50 a second at 6 s with 1 waiting: 306 robots; 1.2 / (5 ms x 1.1) = 218 a second.
+    assert controller.interval == 1.55  # 306 / (0.92 x 218) = 1.52 s
+
+
+def test_it_never_shortens_below_the_sites_interval():
+    controller = Controller(interval=6.0, cpu_share=1.2, fleet=1000)
+
+    for n in range(4):
+        controller.judge(calm(at=2.0 * n, rate=5), base=1.5, robots=1000)
+
+    assert max(controller.interval, 1.5) == 1.5
+
+
+def test_the_learned_interval_is_capped_and_never_shortens_a_sites_longer_one(settings):
+    settings.HEARTBEAT_INTERVAL_MAX = 4
+    controller = Controller()
+    controller.judge(stood(waiting=800), base=1.0, robots=1000)
+    assert controller.interval == 4.0
+
+    controller = Controller()
+    controller.judge(stood(waiting=800), base=6.0, robots=1000)
+    assert max(controller.interval, 6.0) == 6.0
+
+
+def test_at_the_aim_it_probes_for_more_only_after_a_quiet_while():
+    # 1,000 robots told 5.45 s, at the aim of the 199 a second learned (1.2 of a processor at
+    # 5 ms x LOADED_COST a request), the queue last standing at 0 s.
+    controller = Controller(interval=5.45, cpu_share=1.2, fleet=1000, stood_at=0.0)
+    cost = 1.2 / (1000 / (AIM * 5.45) * cadence.LOADED_COST)
+
+    def calm_interval(at: float) -> None:
+        """Calm windows over the whole interval, the robots offering what it makes them."""
+        controller.judge_from = 0.0
+        for n in range(3):
+            window = calm(at=at + 2 * n, rate=1000 / controller.interval, cost=cost)
+            controller.judge(window, base=1.0, robots=1000)
+
+    calm_interval(PROBE_QUIET - 10)
+    assert controller.interval == 5.45  # soon after the queue stood: it holds
+    calm_interval(PROBE_QUIET + 10)
+    assert controller.cpu_share == pytest.approx(1.2 * (1 + PROBE))  # then looks for more
+    assert controller.interval == 5.2
+    calm_interval(PROBE_QUIET + 40)
+    assert controller.cpu_share == pytest.approx(1.2 * (1 + PROBE) * (1 + 2 * PROBE))
+    assert controller.interval == 4.75
+
+
+# --- The model: a fleet against a pool (tests/robots/pool_model.py) -------------------------------
+
+
+@pytest.mark.parametrize(
+    ("robots", "capacity"), [(1000, 190), (500, 190), (200, 190), (1000, 700), (300, 120)]
+)
+def test_past_capacity_the_fleet_settles_near_the_aim_without_a_queue_or_a_flip(robots, capacity):
+    run = pool_model.run(Controller(), robots=robots, capacity=capacity, seconds=300)
+
+    assert 0.85 * capacity <= run.rate(60, 300) <= capacity
+    assert run.waited(60, 300, 50) < 0.2
+    assert not [at for at in run.flips if at > 20]
+
+
+def test_under_capacity_it_never_lengthens():
+    run = pool_model.run(Controller(), robots=150, capacity=190, seconds=120)
+
+    assert run.intervals(0, 120) == {1.0}
+    assert run.rate(10, 120) == pytest.approx(150 / 1.026, rel=0.02)  # 1 s after each answer
+
+
+def test_a_fleet_starting_at_once_with_heavy_first_heartbeats_comes_back_to_the_aim():
+    # The first heartbeat of each boot costs 3 times a plain one: the first capacity learned is
+    # a third of the steady one. Told 10 s at first, the fleet is back near the aim in a minute.
+    run = pool_model.run(Controller(), robots=1000, capacity=190, seconds=240, first_cost=3.0)
+
+    assert max(run.intervals(0, 20)) == 10.0
+    assert run.rate(90, 240) >= 0.85 * 190
+    assert not [at for at in run.flips if at > 30]
+
+
+def test_it_follows_the_machine_down_and_finds_it_again_when_it_recovers():
+    def capacity(second: float) -> float:
+        return 100 if 60 <= second < 120 else 190
+
+    run = pool_model.run(Controller(), robots=1000, capacity=capacity, seconds=420)
+
+    assert run.rate(20, 60) >= 0.85 * 190
+    assert max(run.intervals(70, 120)) == 10.0  # 1,000 / (0.92 x 100) = 10.9 s, capped
+    assert run.rate(300, 420) >= 0.85 * 190  # probed back within three minutes
+
+
+# --- Presence while heartbeats wait for a worker (robots.cadence.heartbeat_backlog) -------------
+
+
+def test_while_heartbeats_wait_for_a_worker_the_sweep_gives_robots_that_long(robot, settings):
+    robot.mark_seen(timezone.now() - timedelta(seconds=10))  # told 1 s: overdue by 7 s
+    robot.save()
+    backlog(8.0, at=timezone.now())
+
+    presence_sweep()
+    robot.refresh_from_db()
+    assert robot.presence == "online"  # its heartbeat may be in our queue
+
+    backlog(6.0, at=timezone.now())
+    presence_sweep()
+    robot.refresh_from_db()
+    assert robot.presence == "unreachable"  # overdue by more than the server is late
+
+
+def test_a_backlog_no_process_reported_lately_is_over(robot):
+    now = timezone.now()
+    backlog(30.0, at=now - cadence.BACKLOG_FRESH)
+
+    assert heartbeat_backlog(now) == 0.0
+    assert heartbeat_backlog(now - timedelta(seconds=1)) == 30.0
+
+
+def backlog(seconds: float, *, at) -> None:
+    HeartbeatCadence.objects.update_or_create(
+        pk=1, defaults={"backlog_seconds": seconds, "backlog_at": at}
+    )
+
+
+def test_a_saturated_window_reports_its_backlog(robot_http, robot, settings):
+    settings.HEARTBEAT_CAPACITY = 1000
+    shared()
+    busy.last = stood_now(waiting=400, rate=200)
+
+    robot_http.heartbeat(1)
+
+    assert HeartbeatCadence.objects.get(pk=1).backlog_seconds == pytest.approx(2.0)  # 400 / 200
+
+
+def stood_now(**fields) -> Window:
+    """A window whose queue stood, just closed."""
+    window = stood(**fields)
+    return Window(
+        time.monotonic() - WINDOW_SECONDS,
+        time.monotonic(),
+        window.served,
+        window.cpu,
+        window.waiting,
+        window.waiting_least,
+        window.pool,
+    )
+
+
+# --- Over HTTP: what robots are told, and one interval for every web process ------------------
+
+# 20 robots heartbeating (R1 is not counted before it is first seen) against a pool that served
+# 10 a second with the queue standing: 20 / (0.92 x 10) = 2.17 s, told 2.2 s.
+SATURATED = 2.2
+
+
+def saturated(site) -> None:
+    """As if the process serving heartbeats had just closed a window whose queue stood."""
+    robots_heartbeating(site, 20)
+    busy.last = stood_now(waiting=10, rate=10)
+
+
+def shared(interval: float = 0.0, changed_at=None) -> None:
+    """The shared row as another process left it (flushed tables lose the migration's row)."""
+    HeartbeatCadence.objects.update_or_create(
+        pk=1, defaults={"interval": interval, "cpu_share": 0.05, "changed_at": changed_at}
+    )
 
 
 def test_a_saturated_server_tells_robots_a_longer_interval(robot_http, robot, settings):
-    settings.HEARTBEAT_CAPACITY = 1000  # the ceiling far away: the busy share decides
-    saturated()
+    settings.HEARTBEAT_CAPACITY = 1000  # the ceiling far away: the queue decides
+    saturated(robot.site)
 
-    assert robot_http.heartbeat(1)["heartbeat_interval"] == factories.interval_told(robot, 2.0)
+    told = robot_http.heartbeat(1)["heartbeat_interval"]
+
+    assert told == factories.interval_told(robot, SATURATED)
 
 
 def test_a_robot_that_obeys_a_learned_interval_is_not_flipped(robot_http, robot, settings):
     settings.HEARTBEAT_CAPACITY = 1000
-    saturated()
+    saturated(robot.site)
     told = robot_http.heartbeat(1)["heartbeat_interval"]
     robot.refresh_from_db()
     seen = robot.last_seen_at
 
-    assert told == factories.interval_told(robot, 2.0)
     presence_sweep(now=seen + timedelta(seconds=3 * told - 0.01))  # past the site's 3 s
     robot.refresh_from_db()
     assert robot.presence == "online"
     assert robot.unreachable_at - seen == timedelta(seconds=3 * told)
 
 
+def test_under_the_ceilings_interval_it_lengthens_from_that_interval(robot_http, robot, settings):
+    settings.HEARTBEAT_CAPACITY = 10  # 21 robots: 2.5 s by the ceiling
+    robots_heartbeating(robot.site, 20)
+    busy.last = stood_now(waiting=10, rate=5)
+
+    # 20 robots (not the 10 + 5 + 5 x 2.5 Little counts) at 0.92 x 5 a second: 4.35 s.
+    assert robot_http.heartbeat(1)["heartbeat_interval"] == factories.interval_told(robot, 4.35)
+
+
 def test_a_zero_ceiling_turns_the_learned_interval_off(robot_http, robot, settings):
     settings.HEARTBEAT_CAPACITY = 0
-    saturated()
+    saturated(robot.site)
 
     assert robot_http.heartbeat(1)["heartbeat_interval"] == 1.0
+
+
+def test_a_processs_decision_is_written_for_the_others(robot_http, robot, settings):
+    settings.HEARTBEAT_CAPACITY = 1000
+    shared()
+    saturated(robot.site)
+
+    robot_http.heartbeat(1)
+
+    row = HeartbeatCadence.objects.get(pk=1)
+    assert (row.interval, row.cpu_share) == (SATURATED, pytest.approx(10 * 0.006))
+
+
+def test_another_processs_decision_is_adopted(robot_http, robot, settings):
+    settings.HEARTBEAT_CAPACITY = 1000
+    shared(3.0, timezone.now())
+
+    assert robot_http.heartbeat(1)["heartbeat_interval"] == factories.interval_told(robot, 3.0)
+
+
+def test_a_decision_gives_way_to_one_another_process_wrote_since_this_one_heard(
+    robot_http, robot, settings
+):
+    settings.HEARTBEAT_CAPACITY = 1000
+    cadence._shared.read_at = time.monotonic()  # it read the row just before: not again yet
+    shared(3.5, timezone.now())  # another process, judging the same load, wrote meanwhile
+    saturated(robot.site)  # this one would ask 2.2 s
+
+    told = robot_http.heartbeat(1)["heartbeat_interval"]
+
+    # Its conditional UPDATE found the row changed: the other's decision stands.
+    assert told == factories.interval_told(robot, 3.5)
+    assert HeartbeatCadence.objects.get(pk=1).interval == 3.5
