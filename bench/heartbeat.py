@@ -1,6 +1,6 @@
 """Heartbeat throughput: N robots at 1 Hz against the production stack, and a bare endpoint.
 
-    python bench/heartbeat.py            # 100, 500, 1000 robots, PostgreSQL (a few minutes)
+    python bench/heartbeat.py            # 100, 200, 500, 1000 robots, PostgreSQL (8 minutes)
     python bench/heartbeat.py --quick    # 20 and 50 robots, short: what CI runs
     python bench/heartbeat.py --database sqlite:///    # the default database instead
 
@@ -8,17 +8,22 @@ The server runs as the README recommends for production (bench/stack.py): gunico
 (2 x CPUs + 1 with PostgreSQL, as the README advises; 3 with SQLite, as the Procfile), daphne,
 a Celery worker and Celery beat (the sweeps run every second, as in production), on a fresh
 database. Each simulated robot heartbeats once a second (phases spread over the second) with a
-realistic body (state at its dock, no events), waiting for each answer before the next as a
-robot does; when the server falls behind the robots fall behind with it, so "achieved" is what
-the server sustains. Each robot keeps one boot_id, its seq rising, for the whole run (all rows),
-as a running fleet does: it does not restart every row, and the first heartbeat of a boot costs
-more queries (before 2026-11-23 each row was a new boot: a third of the heartbeats at 1000
-robots were first ones). In the same run the same load goes to `POST /bench/bare`, a DRF view that
-returns `{}` (no authentication, no database): the ratio is what the heartbeat's own work costs.
+realistic body (state at its dock, no events), waiting for each answer and then the interval it
+told before the next, as the protocol asks; when the server falls behind the robots fall behind
+with it, so "achieved" is what the server sustains. Each robot keeps one boot_id, its seq
+rising, for the whole run (all rows), as a running fleet does: it does not restart every row,
+and the first heartbeat of a boot costs more queries (before 2026-11-23 each row was a new boot:
+a third of the heartbeats at 1000 robots were first ones). In the same run the same load goes
+to `POST /bench/bare`, a DRF view that returns `{}` (no authentication, no database): the ratio
+is what the heartbeat's own work costs.
 
 The load generator is one asyncio process with raw HTTP/1.1 (a connection per request: gunicorn's
-sync workers close each one). It shares the 2-core machine with the server; its own CPU use is
-printed so it can be seen not to be the bottleneck.
+sync workers close each one), sending through nginx as robots do in production. It shares the
+2-core machine with the server; its own CPU use is printed so it can be seen not to be the
+bottleneck. Until 2026-11-27 it sent straight to gunicorn (--direct), which lingers after each
+answer until its client closes (gunicorn 27): a generator slowed by hundreds of connections
+held the workers in that wait, 40 % of their time with 300 robots on a 2-core machine (py-spy),
+against 3 % through nginx, which closes at once.
 """
 
 from __future__ import annotations
@@ -50,10 +55,13 @@ TIMEOUT = 10.0  # seconds before a heartbeat counts as an error
 
 @dataclass
 class Boot:
-    """A robot's boot: one for the whole run, its seq rising across rows."""
+    """A robot's boot: one for the whole run, its seq rising across rows, and the heartbeat
+    interval it was last told, which it keeps from one row to the next as a running robot does
+    (1 s until told, as the protocol says)."""
 
     id: str = field(default_factory=lambda: uuid.uuid4().hex)
     seq: int = 0
+    interval: float = 1.0
 
 
 BOOTS: dict[str, Boot] = {}  # robot code -> its boot
@@ -65,9 +73,14 @@ class Settings:
     warmup: float
     measure: float
     stalled: int  # robots of the Redis-stalled pair of rows
+    direct: bool = False  # the load straight to gunicorn, not through nginx
 
 
-FULL = Settings(counts=(100, 200, 500, 1000), warmup=3.0, measure=15.0, stalled=100)
+# A row's robots that were not in the row before start together, and their first heartbeats
+# (new boots, or presence coming back after the bare row) cost more: the learned interval takes
+# 20-40 s to settle after that (bench/heartbeat.py --timeline, 2026-11-27), and a row measures
+# the fleet once settled (3 s until then).
+FULL = Settings(counts=(100, 200, 500, 1000), warmup=30.0, measure=15.0, stalled=100)
 QUICK = Settings(counts=(20, 50), warmup=1.0, measure=2.0, stalled=20)
 
 
@@ -83,6 +96,9 @@ class Load:
     told: list[float] = field(default_factory=list)  # heartbeat_interval of answers, seconds
     push: list[float] = field(default_factory=list)  # plan posted -> in a probe's hands, s
     push_lost: int = 0  # plans posted that no probe received within PUSH_DEADLINE
+    # (seconds from the row's start, latency, interval told) of every answer (--timeline)
+    answers: list[tuple[float, float, float]] = field(default_factory=list)
+    queue: list[tuple[float, int]] = field(default_factory=list)  # (seconds, connections)
 
     @property
     def achieved(self) -> float:
@@ -117,6 +133,18 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--warmup", type=float, help="seconds of each row before measuring")
     parser.add_argument("--measure", type=float, help="seconds measured per row")
+    parser.add_argument(
+        "--direct",
+        action="store_true",
+        help="send the robots' load straight to gunicorn, not through nginx as in production "
+        "(as this benchmark did until 2026-11-27)",
+    )
+    parser.add_argument(
+        "--timeline",
+        action="store_true",
+        help="after the table, each heartbeat row second by second: answers, latency, the "
+        "interval told and the connections waiting for a worker",
+    )
     args = parser.parse_args(argv)
     settings = QUICK if args.quick else FULL
     settings = Settings(
@@ -124,6 +152,7 @@ def main(argv: list[str] | None = None) -> int:
         settings.warmup if args.warmup is None else args.warmup,
         settings.measure if args.measure is None else args.measure,
         args.robots[0] if args.robots else settings.stalled,
+        args.direct,
     )
     postgres = not args.database.startswith("sqlite")
     workers = args.web_workers or ((2 * os.cpu_count() + 1) if postgres else 3)
@@ -135,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
             beat=True,
             conn_max_age=60,
             env={"HEARTBEAT_CAPACITY": str(args.capacity)},
-            proxy=True,  # for the push probes, robots as in production; the load goes direct
+            proxy=True,  # robots talk to nginx, as in production (the load too, unless --direct)
         )
         # This process posts the probes' plans: its wake-ups must reach the stack's daphne.
         os.environ.update(CHANNELS_PREFIX=stack.channels_prefix, REDIS_URL=stack.redis_url)
@@ -155,6 +184,8 @@ def main(argv: list[str] | None = None) -> int:
             else []
         )
     _print_table(loads)
+    if args.timeline:
+        _print_timelines(loads)
     if stalled:
         _print_stalled(stalled)
     return 0 if all(load.latencies for load in [*loads, *stalled]) else 1
@@ -216,10 +247,12 @@ def _print_header(stack: Stack, postgres: bool, settings: Settings, argv, capaci
         f"HEARTBEAT_CAPACITY={capacity} (the operator's ceiling of heartbeats/s; below it the "
         "server learns its own, robots/cadence.py)"
     )
+    path = "straight to gunicorn" if settings.direct else "through nginx, as in production"
     print(
         f"load: robots at 1 Hz each unless told longer, phases spread over the second,\n"
         f"{settings.warmup:g} s warm-up then {settings.measure:g} s measured per row; one asyncio "
-        f"process with raw HTTP/1.1, on the same {os.cpu_count()}-core machine as the server.\n"
+        f"process with raw HTTP/1.1, {path},\non the same {os.cpu_count()}-core machine as the "
+        "server.\n"
     )
 
 
@@ -317,7 +350,8 @@ def _load(stack: Stack, robots, endpoint: str, settings: Settings, push=None) ->
     started = datetime.datetime.now(datetime.UTC)
     if push and endpoint == "heartbeat":
         push.measure(after=0.5 + settings.warmup, seconds=settings.measure)
-    asyncio.run(_drive(stack.http_port, robots, endpoint, settings, load))
+    port = stack.proxy_port if stack.proxy_port and not settings.direct else stack.http_port
+    asyncio.run(_drive(port, stack.http_port, robots, endpoint, settings, load))
     if push and endpoint == "heartbeat":
         load.push, load.push_lost = push.results()
     load.loader_cpu = (time.process_time() - cpu) / (time.perf_counter() - wall)
@@ -332,24 +366,63 @@ def _load(stack: Stack, robots, endpoint: str, settings: Settings, push=None) ->
     return load
 
 
-async def _drive(port: int, robots, endpoint: str, settings: Settings, load: Load) -> None:
+async def _drive(
+    port: int, queue_port: int, robots, endpoint: str, settings: Settings, load: Load
+) -> None:
     loop = asyncio.get_running_loop()
     begin = loop.time() + 0.5
     window = (begin + settings.warmup, begin + settings.warmup + settings.measure)
     count = len(robots)
-    await asyncio.gather(
-        *(
-            _robot(port, code, token, endpoint, begin + n / count, window, load)
-            for n, (code, token) in enumerate(robots)
-        )
-    )
+    sampler = asyncio.create_task(_queue_sampled(queue_port, begin, load))
+    driven = []
+    for n, (code, token) in enumerate(robots):
+        # Its first heartbeat of the row at its phase of the interval it was last told.
+        first = begin + n / count * _interval_kept(code, endpoint)
+        driven.append(_robot(port, code, token, endpoint, first, window, load, begin))
+    await asyncio.gather(*driven)
+    sampler.cancel()
 
 
-async def _robot(port, code, token, endpoint, first, window, load: Load) -> None:
-    """One robot: a heartbeat from `first`, then each the interval it was told after the
-    previous one's answer (1 s until told, and for the bare endpoint)."""
+def _interval_kept(code: str, endpoint: str) -> float:
+    """The interval robot `code` heartbeats at as a row starts: the one it was last told (the
+    bare endpoint tells none: 1 s)."""
+    return BOOTS.setdefault(code, Boot()).interval if endpoint == "heartbeat" else 1.0
+
+
+async def _queue_sampled(port: int, begin: float, load: Load) -> None:
+    """Every QUEUE_EVERY seconds, the connections waiting for a worker on `port`."""
     loop = asyncio.get_running_loop()
-    boot, due, interval = BOOTS.setdefault(code, Boot()), first, 1.0
+    while True:
+        load.queue.append((loop.time() - begin, listen_queue(port)))
+        await asyncio.sleep(QUEUE_EVERY)
+
+
+QUEUE_EVERY = 0.25
+
+
+def listen_queue(port: int) -> int:
+    """Connections waiting to be accepted on 127.0.0.1:`port` (Linux: /proc/net/tcp lists a
+    listening socket's accept queue as its rx_queue); 0 where that cannot be read."""
+    wanted = f"0100007F:{port:04X}"
+    try:
+        lines = Path("/proc/net/tcp").read_text().splitlines()[1:]
+    except OSError:
+        return 0
+    for line in lines:
+        fields = line.split()
+        if fields[1] == wanted and fields[3] == "0A":  # state LISTEN
+            return int(fields[4].split(":")[1], 16)
+    return 0
+
+
+async def _robot(port, code, token, endpoint, first, window, load: Load, begin: float) -> None:
+    """One robot: a heartbeat from `first`, then each the interval it was told after the
+    previous one's answer (1 s until told, and for the bare endpoint), as the protocol asks
+    (docs/robot-protocol.md, "Interval"). Until 2026-11-27 it was that interval after the
+    previous one was sent, or at once if answered later: a robot whose heartbeat had queued came
+    back as much sooner than it was told, and robots leaving a backlog came back together."""
+    loop = asyncio.get_running_loop()
+    boot, due, interval = BOOTS.setdefault(code, Boot()), first, _interval_kept(code, endpoint)
     path = f"/api/v1/robots/{code}/heartbeat" if endpoint == "heartbeat" else "/bench/bare"
     while due < window[1]:
         await asyncio.sleep(max(due - loop.time(), 0))
@@ -362,14 +435,15 @@ async def _robot(port, code, token, endpoint, first, window, load: Load) -> None
             status, body = type(exc).__name__, b""
         answered = loop.time()
         if status == 200 and endpoint == "heartbeat":
-            interval = float(json.loads(body)["heartbeat_interval"])
+            interval = boot.interval = float(json.loads(body)["heartbeat_interval"])
+            load.answers.append((answered - begin, answered - sent, interval))
         if window[0] <= sent and answered <= window[1]:
             if status == 200:
                 load.latencies.append(answered - sent)
                 load.told.append(interval)
             else:
                 load.error(str(status))
-        due = max(due + interval, answered)  # a robot heartbeats again only once answered
+        due = answered + interval  # the protocol's rule: the interval told after the answer
 
 
 def heartbeat_body(boot: str, seq: int, code: str) -> bytes:
@@ -461,7 +535,7 @@ def _print_table(loads: list[Load]) -> None:
         f"every {PUSH_EVERY:g} s\n"
         "while measured; ms from the post to the heartbeat answer handing it to the robot. They\n"
         "talk through nginx, which sends a woken heartbeat (Woken-By) to gunicorn's socket for\n"
-        "those; the rows' robots send straight to gunicorn's regular one."
+        "those; the rows' robots to its regular one (or straight to it, with --direct)."
     )
     print("\nheartbeat / bare endpoint under the same load:")
     for heartbeat, bare in zip(loads[::2], loads[1::2], strict=True):
@@ -471,6 +545,30 @@ def _print_table(loads: list[Load]) -> None:
             f"{heartbeat.robots:>6} robots: {ratio:.2f} of the bare endpoint's throughput, "
             f"median latency x{slower:.1f}"
         )
+
+
+def _print_timelines(loads: list[Load]) -> None:
+    """Each heartbeat row second by second, from its start (the warm-up included)."""
+    for load in loads:
+        if load.endpoint != "heartbeat":
+            continue
+        print(
+            f"\n{load.robots} robots, second by second from the row's start (warm-up included)\n"
+            f"{'s':>4}{'answers':>9}{'p50 ms':>9}{'max ms':>9}{'told s':>8}{'waiting':>9}"
+        )
+        seconds = int(max((at for at, _, _ in load.answers), default=0)) + 1
+        for second in range(seconds):
+            answers = [a for a in load.answers if second <= a[0] < second + 1]
+            queue = [n for at, n in load.queue if second <= at < second + 1]
+            latencies = [latency for _, latency, _ in answers]
+            told = [interval for _, _, interval in answers]
+            print(
+                f"{second:>4}{len(answers):>9}"
+                f"{_ms(latencies, 50) if answers else '-':>9}"
+                f"{_ms(latencies, 100) if answers else '-':>9}"
+                f"{_percentile(told, 50) if answers else float('nan'):>8.1f}"
+                f"{max(queue, default=0):>9}"
+            )
 
 
 def _print_stalled(loads: list[Load]) -> None:
