@@ -13,14 +13,18 @@ The capacity is learned, not set, from the queue of connections waiting for a we
 (core/busy.py: read at every request's start, over windows of about 2 s):
 
 * **A window in which the queue never emptied** (a standing queue) is a pool serving all it
-  can: what this process served in it is its share of the capacity, and it is kept. Every robot
-  then has one heartbeat waiting its turn behind the others' and sends the next once answered,
-  so the fleet is as many robots as the pool serves in the time a heartbeat takes to be
-  answered, about (waiting + in service) / the pool's rate (Little's law), and told that time
-  over AIM the robots offer AIM of the capacity. One judgement, however far past capacity: a
-  fleet starting at once against a server taking 190 a second is told 6 s in one step, where
-  the controller that lengthened step by step let its queue grow for ten seconds. A queue that
-  still stands once every robot has heard the interval lengthens it by a share AIM at least.
+  can: the processor share the pool got in it is what the machine gives it, and it is kept;
+  over the processor time a request costs, it gives the requests a second the pool serves.
+  Every robot then has one heartbeat waiting its turn behind the others' and sends the next
+  once answered, so the fleet is as many robots as the pool serves in the time a heartbeat
+  takes to be answered, about (waiting + in service) / the pool's rate (Little's law), and told
+  that time over AIM the robots offer AIM of the capacity. One judgement, however far past
+  capacity: a fleet starting at once against a server taking 190 a second is told 6 s in one
+  step, where the controller that lengthened step by step let its queue grow for ten seconds.
+  A queue that keeps each heartbeat waiting less than QUEUE_TOLERATED of the interval
+  lengthens nothing (nor is it calm: the interval holds). While the robots are still hearing a
+  change, the queue it answered still stands, and nothing more is asked of it; a queue that
+  still stands once every robot has heard the interval lengthens it by HOLD at least.
 * **Windows without a standing queue**, over a whole interval once every robot has heard it
   (then every robot has heartbeated once in them), give the rate the fleet offers at that
   interval, which is told so that it comes to AIM of the capacity learned, never under the
@@ -78,6 +82,13 @@ LOADED_COST = 1.1
 PROBE = 0.05
 PROBE_MAX = 0.4
 PROBE_QUIET = 30.0
+# A queue that stood but kept a heartbeat waiting less than this share of the interval in force
+# (its fewest waiting over the rate served) lengthens nothing: the pool serves all it can, and
+# the wait costs the robots less than a longer interval would. Lengthened for every such queue,
+# 1,000 robots told 4.5 s by the default ceiling, 30-45 waiting while 210 a second were served,
+# were told 5.05 s and sent 175 a second, where the cadence before (a busy share, which did not
+# act there) let them send 216 (bench/heartbeat.py, 2026-11-27).
+QUEUE_TOLERATED = 0.25
 # The learned interval is told in steps of this many seconds, and not changed by less than
 # HOLD of itself (each change moves every robot's moment of the interval once).
 LEARNED_STEP = 0.05
@@ -127,9 +138,13 @@ class Controller:
         settled = window.start >= self.judge_from
         if window.queue_stood:
             self._stood(window)
-            if settled or not self.fleet:
+            if settled and window.waiting_least >= QUEUE_TOLERATED * current * window.rate:
+                # Only then: judged again while the robots heard the change, every window of
+                # the queue it answered lengthened it by what its own noise asked, and the
+                # interval ratcheted up in steps of 0.05-0.25 s from one process to the next
+                # (3.75 to 4.35 s in 10 s with 1,000 robots, bench/heartbeat.py, 2026-11-27).
                 self.fleet = _fleet(window, current, robots)
-            self._lengthened(window, base=base, current=current)
+                self._lengthened(window, base=base, current=current)
         elif settled:
             self.gathered = _joined(self.gathered, window)
             if self.gathered.seconds >= current:
@@ -159,8 +174,16 @@ class Controller:
         return self.cpu_share / cost
 
     def _lengthened(self, window: Window, *, base: float, current: float) -> None:
-        """After a window whose queue stood."""
-        wanted = self.fleet / (AIM * self._capacity(window))
+        """After a window whose queue stood, once the robots heard the interval: lengthened
+        to what the fleet needs, and once lengthened by HOLD at least (the queue says the
+        capacity learned is too high); from the site's interval only as far as the fleet needs
+        (a burst of requests makes a queue too)."""
+        capacity = self._capacity(window)
+        if not capacity:
+            return
+        wanted = self.fleet / (AIM * capacity)
+        if self.interval > base:
+            wanted = max(wanted, current * (1 + HOLD))
         new = min(_stepped(wanted, LEARNED_STEP), max(settings.HEARTBEAT_INTERVAL_MAX, base))
         if new > current:
             why = f"{window.waiting:.0f} waiting, {window.rate:.0f} served a second"
@@ -190,12 +213,15 @@ class Controller:
         self.judge_from = at + _settling(current, queued)
         self.gathered = None
 
-    def adopt(self, interval: float, cpu_share: float, *, at: float, base: float) -> None:
-        """Another process's decision, heard at clock time `at`: this one tells it from now on
-        and judges as if it had made it."""
+    def adopt(
+        self, interval: float, cpu_share: float, *, at: float, base: float, queued: float = 0.0
+    ) -> None:
+        """Another process's decision, heard at clock time `at`, made with heartbeats waiting
+        `queued` seconds for a worker: this one tells it from now on and judges as if it had
+        made it."""
         current = max(self.interval, base)
         self.interval, self.cpu_share = interval, cpu_share
-        self.judge_from = at + _settling(current, 0.0)
+        self.judge_from = at + _settling(current, queued)
         self.gathered = None
 
 
@@ -285,14 +311,20 @@ def _shared_heard(*, base: float) -> None:
     _shared.read_at = time.monotonic()
     row = (
         HeartbeatCadence.objects.filter(pk=1)
-        .values_list("interval", "cpu_share", "changed_at")
+        .values_list("interval", "cpu_share", "changed_at", "backlog_seconds", "backlog_at")
         .first()
     )
     if row is None or row[2] is None or row[2] == _shared.changed_at:
         return
-    interval, cpu_share, _shared.changed_at = row
+    interval, cpu_share, _shared.changed_at, backlog, backlog_at = row
+    # The queue the decision answered: until it has drained the robots have not all heard it.
+    # Adopted as if none stood, another process judged its windows 1.5 s later and lengthened
+    # the interval again, 3.10 to 3.70 s in 4 s (bench/heartbeat.py, 2026-11-27).
+    fresh = backlog_at is not None and backlog_at >= _shared.changed_at - BACKLOG_FRESH
     if interval != _controller.interval:
-        _controller.adopt(interval, cpu_share, at=time.monotonic(), base=base)
+        _controller.adopt(
+            interval, cpu_share, at=time.monotonic(), base=base, queued=backlog if fresh else 0.0
+        )
 
 
 def _shared_tell(interval: float, cpu_share: float) -> bool:

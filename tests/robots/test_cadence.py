@@ -232,6 +232,52 @@ def test_while_the_robots_hear_it_another_standing_window_asks_no_more():
     assert controller.interval == 5.45
 
 
+def test_while_the_robots_hear_it_a_noisier_window_asks_no_more():
+    controller = Controller()
+    controller.judge(stood(waiting=800, rate=200), base=1.0, robots=1000)
+
+    # Until every robot heard 5.45 s (the 4 s of the queue and 1.5 x 1 s), the queue it
+    # answered stands: a window whose requests cost 10 % more is noise, not a new load.
+    controller.judge(stood(at=2.0, waiting=700, rate=200, cost=0.0066), base=1.0, robots=1000)
+
+    assert controller.interval == 5.45
+
+
+def test_a_queue_standing_once_the_robots_heard_it_lengthens_by_hold_at_least():
+    controller = Controller(interval=2.0, cpu_share=1.2, share_at=0.0, fleet=400, judge_from=0.0)
+
+    # 400 robots at 2 s offer 200 a second, under the 221 that 0.92 x 1.2 / 5 ms makes; the
+    # queue stood all the same (120 waiting at least: 0.6 s, more than a quarter of the 2 s),
+    # so the capacity learned is too high.
+    controller.judge(stood(at=1.0, waiting=240, rate=200, cost=0.005), base=1.0, robots=400)
+
+    assert controller.interval == 2.1  # 5 % longer
+
+
+def test_a_queue_that_keeps_heartbeats_waiting_a_moment_only_changes_nothing():
+    controller = Controller(interval=4.5, cpu_share=1.2, share_at=0.0, fleet=1000, judge_from=0.0)
+
+    # 1,000 robots at 4.5 s: 222 a second, the pool serving 210 with 30-45 waiting (at least
+    # 30: 0.14 s, under a quarter of the interval): it serves all it can, and a longer interval
+    # would cost more than the wait.
+    for n in range(10):
+        window = stood(at=2.0 * n, waiting=45, least=30, rate=210, cost=0.0057)
+        controller.judge(window, base=1.0, robots=1000)
+
+    assert controller.interval == 4.5
+    assert controller.cpu_share == pytest.approx(1.2)  # nor a calm window: nothing shortens
+
+
+def test_a_queue_at_the_sites_interval_that_the_fleet_does_not_make_lengthens_nothing():
+    controller = Controller(cpu_share=1.2)
+
+    # 40 robots at 1 s, and a burst of requests queued for two seconds (60 waiting at least:
+    # 0.4 s, more than a quarter of the interval).
+    controller.judge(stood(waiting=120, rate=150), base=1.0, robots=40)
+
+    assert controller.interval == 0.0
+
+
 def test_a_moments_dip_in_the_processor_the_pool_gets_is_not_learned():
     controller = Controller()
     controller.judge(stood(waiting=800, rate=200), base=1.0, robots=1000)
@@ -329,11 +375,13 @@ def test_at_the_aim_it_probes_for_more_only_after_a_quiet_while():
 @pytest.mark.parametrize(
     ("robots", "capacity"), [(1000, 190), (500, 190), (200, 190), (1000, 700), (300, 120)]
 )
-def test_past_capacity_the_fleet_settles_near_the_aim_without_a_queue_or_a_flip(robots, capacity):
+def test_past_capacity_the_fleet_settles_near_the_aim_with_no_long_queue_or_flip(robots, capacity):
     run = pool_model.run(Controller(), robots=robots, capacity=capacity, seconds=300)
 
-    assert 0.85 * capacity <= run.rate(60, 300) <= capacity
-    assert run.waited(60, 300, 50) < 0.2
+    assert 0.85 * capacity <= run.rate(60, 300) <= 1.001 * capacity
+    # Where the capacity learned is too high a short queue may stand: it is tolerated.
+    told = max(run.intervals(60, 300))
+    assert run.waited(60, 300, 50) < cadence.QUEUE_TOLERATED * told + 0.05
     assert not [at for at in run.flips if at > 20]
 
 
@@ -495,6 +543,24 @@ def test_another_processs_decision_is_adopted(robot_http, robot, settings):
     shared(3.0, timezone.now())
 
     assert robot_http.heartbeat(1)["heartbeat_interval"] == factories.interval_told(robot, 3.0)
+
+
+def test_an_adopted_decision_is_not_judged_again_until_its_queue_has_drained(
+    robot_http, robot, settings
+):
+    settings.HEARTBEAT_CAPACITY = 1000
+    shared(3.0, timezone.now())
+    backlog(4.0, at=timezone.now())  # the other process's queue: 4 s
+    robot_http.heartbeat(1)  # heard and adopted
+    robots_heartbeating(robot.site, 20)
+
+    # 2 s later (past the 1.5 s of the interval before, not the queue's 4 s more), a window
+    # whose queue stood, 15 waiting at least (1.5 s at 10 a second: no short queue): robots
+    # still on 1 s make it, and it asks nothing more.
+    judged_from = time.monotonic() + 2.0
+    busy.last = Window(judged_from, judged_from + 2.0, 20, 0.12, 20, 15, 5)
+    assert robot_http.heartbeat(2)["heartbeat_interval"] == factories.interval_told(robot, 3.0)
+    assert HeartbeatCadence.objects.get(pk=1).interval == 3.0
 
 
 def test_a_decision_gives_way_to_one_another_process_wrote_since_this_one_heard(
