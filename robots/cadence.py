@@ -317,14 +317,14 @@ def _shared_heard(*, base: float) -> None:
     if row is None or row[2] is None or row[2] == _shared.changed_at:
         return
     interval, cpu_share, _shared.changed_at, backlog, backlog_at = row
+    if interval == _controller.interval:
+        return
     # The queue the decision answered: until it has drained the robots have not all heard it.
     # Adopted as if none stood, another process judged its windows 1.5 s later and lengthened
     # the interval again, 3.10 to 3.70 s in 4 s (bench/heartbeat.py, 2026-11-27).
     fresh = backlog_at is not None and backlog_at >= _shared.changed_at - BACKLOG_FRESH
-    if interval != _controller.interval:
-        _controller.adopt(
-            interval, cpu_share, at=time.monotonic(), base=base, queued=backlog if fresh else 0.0
-        )
+    queued = backlog if fresh else 0.0
+    _controller.adopt(interval, cpu_share, at=time.monotonic(), base=base, queued=queued)
 
 
 def _shared_tell(interval: float, cpu_share: float) -> bool:
