@@ -1,6 +1,7 @@
 """The plain heartbeat's shortcut (boards.serializers.heartbeat_plain) gives what the
 serializer gives, or leaves the body to it: generated bodies, valid and not."""
 
+import copy
 import math
 
 import pytest
@@ -76,16 +77,25 @@ def bodies(draw, floors, waypoints):
     for path in draw(st.lists(st.sampled_from(PATHS), max_size=3)):
         *parent, key = path.split(".")
         target = body["state"] if parent and isinstance(body["state"], dict) else body
-        target[key] = draw(
-            st.one_of(
-                replacements,
-                st.sampled_from(
-                    [[{"id": "e1", "type": "loaded"}], ["m-1", ""], ["m-1", 2], [" "], {}]
-                ),
-                st.sampled_from(["2026-11-22", "x", "2026-11-22T09:14:03+09:00", "Idle"]),
+        target[key] = _fresh(
+            draw(
+                st.one_of(
+                    replacements,
+                    st.sampled_from(
+                        [[{"id": "e1", "type": "loaded"}], ["m-1", ""], ["m-1", 2], [" "], {}]
+                    ),
+                    st.sampled_from(["2026-11-22", "x", "2026-11-22T09:14:03+09:00", "Idle"]),
+                )
             )
         )
     return _without_absent(body)
+
+
+def _fresh(value):
+    """A copy of a drawn value: sampled_from hands out the same {} or [] every time, so
+    one changed in place (state replaced by {}, then state.x set) carries over to the next
+    example, or loops into itself (state.events set to that same {})."""
+    return copy.deepcopy(value, memo={id(ABSENT): ABSENT})
 
 
 def _without_absent(value):
