@@ -127,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--capacity",
         type=int,
-        default=int(os.environ.get("HEARTBEAT_CAPACITY", 250)),
+        default=int(os.environ.get("HEARTBEAT_CAPACITY", 1000)),  # settings.py's default
         help="the server's HEARTBEAT_CAPACITY, the operator's ceiling (heartbeats/s; below it "
         "the server lengthens the interval when saturated; 0: robots always told 1 s)",
     )

@@ -272,7 +272,10 @@ HEARTBEAT_MAX_BYTES = 64 * 1024
 # fleet would send more at the sites' intervals, every robot is told a longer heartbeat_interval
 # (robots/cadence.py), as it is whenever the web workers are saturated below it (learned from
 # the queue of connections waiting for them, core/busy.py). 0 turns every lengthening off.
-HEARTBEAT_CAPACITY = env_int("HEARTBEAT_CAPACITY", 250, minimum=0)
+# 1,000 by default, about what a bare endpoint takes on 2 cores: below it the learned interval
+# does the work. At 250 (until 2026-11-27) the ceiling held 1,000 robots to 222 heartbeats a
+# second on a machine that served them 416 with it at 1,000 (bench/heartbeat.py, README).
+HEARTBEAT_CAPACITY = env_int("HEARTBEAT_CAPACITY", 1000, minimum=0)
 # The longest interval ever told; with many robots on a small server, past it heartbeats queue.
 HEARTBEAT_INTERVAL_MAX = env_int("HEARTBEAT_INTERVAL_MAX", 10, minimum=1)
 # Seconds told to a robot idle (nothing on board, nothing to report) that holds
