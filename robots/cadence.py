@@ -85,9 +85,9 @@ PROBE_QUIET = 30.0
 # A queue that stood but kept a heartbeat waiting less than this share of the interval in force
 # (its fewest waiting over the rate served) lengthens nothing: the pool serves all it can, and
 # the wait costs the robots less than a longer interval would. Lengthened for every such queue,
-# 1,000 robots told 4.5 s by the default ceiling, 30-45 waiting while 210 a second were served,
-# were told 5.05 s and sent 175 a second, where the cadence before (a busy share, which did not
-# act there) let them send 216 (bench/heartbeat.py, 2026-11-27).
+# 1,000 robots told 4.5 s by the ceiling of 250 (the default then), 30-45 waiting while 210 a
+# second were served, were told 5.05 s and sent 175 a second, where the cadence before (a busy
+# share, which did not act there) let them send 216 (bench/heartbeat.py, 2026-11-27).
 QUEUE_TOLERATED = 0.25
 # The learned interval is told in steps of this many seconds, and not changed by less than
 # HOLD of itself (each change moves every robot's moment of the interval once).
@@ -397,16 +397,16 @@ def heartbeat_interval_spread(
     over it.
 
     A robot keeps its phase: it heartbeats the told interval after its last one. Every robot
-    hears a longer interval within one of the site's (all of them within a second at 1 s),
-    so told 4.5 s a fleet spread over one second went on heartbeating together in one second
-    of every 4.5, as many a second as before it was slowed (bench/heartbeat.py, 1,000
-    robots under the default ceiling, 2026-11-25: p99 298 ms at 228 heartbeats a second;
-    README). Each robot's slot is a fixed share of the interval, on the wall clock (the same
-    on every node): the fractional part of its id times the golden ratio's inverse (the same
-    in every process), so robots with ids in a row take slots as evenly apart as they can be,
-    whatever their number (Weyl's sequence). Taken from a crc32 of their codes until
-    2026-11-27, 1,000 robots coded H0001 to H1000 came 31 to 69 to a twentieth of the interval
-    where 50 were due, and the densest twentieths queued at 89 % of what the server takes.
+    hears a longer interval within one of the site's (all of them within a second at 1 s), so
+    told 4.5 s a fleet spread over one second went on heartbeating together in one second of
+    every 4.5, as many a second as before it was slowed (bench/heartbeat.py, 1,000 robots under
+    the ceiling of 250, the default then, 2026-11-25: p99 298 ms at 228 heartbeats a second;
+    README). Each robot's slot is a fixed share of the interval, on the wall clock (the same on
+    every node): the fractional part of its id times the golden ratio's inverse (the same in
+    every process), so robots with ids in a row take slots as evenly apart as they can be,
+    whatever their number (Weyl's sequence). Taken from a crc32 of their codes until 2026-11-27,
+    1,000 robots coded H0001 to H1000 came 31 to 69 to a twentieth of the interval where 50 were
+    due, and the densest twentieths queued at 89 % of what the server takes.
     The robot is told to come at its first slot at least half the interval, and the site's,
     from now. So it is told between that and one interval more, once, and the interval itself
     (less the time its heartbeat took to arrive) while it keeps to its slot."""
