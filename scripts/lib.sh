@@ -334,3 +334,26 @@ ensure_chromium() {
     ensure_apt_packages chromium fonts-liberation
     [[ -x "${CHROMIUM_BIN}" ]] || die "${CHROMIUM_BIN} is missing after installing chromium"
 }
+
+# ----------------------------------------------------------------------------------------------
+# Node.js packages of the test tools (package.json, package-lock.json: exact versions). Node and
+# npm come from Debian's packages when missing; `npm ci` runs again only when the lock changed.
+
+ensure_node_packages() {
+    local lock="${REPO_ROOT}/package-lock.json"
+    local stamp="${REPO_ROOT}/node_modules/.package-lock.sha256"
+    local want have=""
+    [[ -f "${lock}" ]] || return 0
+    if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+        ensure_apt_packages nodejs npm
+    fi
+    want="$(sha256sum "${lock}" | cut -d' ' -f1)"
+    [[ -f "${stamp}" ]] && have="$(cat "${stamp}")"
+    if [[ "${want}" != "${have}" ]]; then
+        log "installing Node.js packages from package-lock.json"
+        (cd "${REPO_ROOT}" && npm ci --no-audit --no-fund --loglevel=error) \
+            || die "npm ci failed"
+        mkdir -p "${REPO_ROOT}/node_modules"
+        printf '%s\n' "${want}" >"${stamp}"
+    fi
+}

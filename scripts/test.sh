@@ -30,6 +30,7 @@ ensure_postgres_database "${TEST_PG_ROLE}" "${TEST_PG_PASSWORD}" "${TEST_PG_DB}"
 ensure_chromium
 ensure_nginx
 ensure_valgrind
+ensure_node_packages
 
 export SECRET_KEY=test-only-secret
 export DATABASE_URL="postgres://${TEST_PG_ROLE}:${TEST_PG_PASSWORD}@127.0.0.1:5432/${TEST_PG_DB}"
