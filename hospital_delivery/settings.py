@@ -3,6 +3,7 @@
 Bad values stop the process at start-up (see env.py) instead of surfacing later.
 """
 
+import ipaddress
 from datetime import timedelta
 from pathlib import Path
 
@@ -313,6 +314,17 @@ PRESENCE_SWEEP_SECONDS = env_int("PRESENCE_SWEEP_SECONDS", 1, minimum=1)
 SWEEP_SECONDS = env_int("SWEEP_SECONDS", 1, minimum=1)
 # Webhook deliveries whose retry time came (or whose Celery message was lost) are sent by a sweep.
 WEBHOOK_SWEEP_SECONDS = env_int("WEBHOOK_SWEEP_SECONDS", 5, minimum=1)
+# Webhooks never reach loopback, private, link-local, multicast, reserved or the server's own
+# addresses (webhooks/targets.py) except inside these networks, e.g. 10.20.0.0/16 for the
+# hospital's laboratory system: comma-separated, CIDR or single addresses.
+WEBHOOK_ALLOWED_NETWORKS = env_list("WEBHOOK_ALLOWED_NETWORKS", [])
+for _network in WEBHOOK_ALLOWED_NETWORKS:
+    try:
+        ipaddress.ip_network(_network, strict=False)
+    except ValueError:
+        raise ImproperlyConfigured(
+            f"WEBHOOK_ALLOWED_NETWORKS: {_network!r} is not a network (use e.g. 10.20.0.0/16)"
+        ) from None
 
 # The building's lifts and doors (building/): "sim" drives simulated ones (the demo, tests),
 # "mqtt" a building integrator's controller over MQTT (docs/building-devices.md), "none" none.
