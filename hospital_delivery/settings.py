@@ -89,6 +89,11 @@ MIDDLEWARE = [
     "django.contrib.messages.middleware.MessageMiddleware",
     "django.middleware.clickjacking.XFrameOptionsMiddleware",
     "core.middleware.CSPMiddleware",  # django-csp's, its policy built once
+    # A person's request keeps their session alive for SESSION_IDLE_MINUTES more.
+    "hospital_delivery.sessions.SessionIdleMiddleware",
+    # Sign-in posts from an address with too many failures: the lock-out page, before the view
+    # hashes a password (hospital_delivery/signin.py).
+    "hospital_delivery.signin.SignInThrottleMiddleware",
     # Last, as django-axes requires: it answers a locked-out login with the lockout page.
     "axes.middleware.AxesMiddleware",
 ]
@@ -190,6 +195,26 @@ AXES_LOCKOUT_PARAMETERS = [["username", "ip_address"]]
 AXES_RESET_ON_SUCCESS = True
 AXES_LOCKOUT_TEMPLATE = "registration/locked_out.html"
 AXES_VERBOSE = False
+# The client's address: behind a proxy every request comes from the proxy, so the address is
+# read from X-Forwarded-For, trusting as many entries from its right as there are proxies in
+# front of Django that append to it (core/clientaddress.py). 1: the nginx of scripts/run.sh
+# (hospital_delivery/proxy.py); 0: Django reached directly; 2: a load balancer before it.
+TRUSTED_PROXY_COUNT = env_int("TRUSTED_PROXY_COUNT", 1, minimum=0)
+AXES_CLIENT_IP_CALLABLE = "core.clientaddress.client_address"
+# Failed sign-ins from one address, whatever the usernames, within LOGIN_LOCKOUT_MINUTES after
+# which that address's sign-ins are refused before any password is hashed until the window
+# ends (hospital_delivery/signin.py). Above LOGIN_FAILURE_LIMIT: a nurses' station shared by
+# several people stays usable while one of them is locked out.
+LOGIN_ADDRESS_FAILURE_LIMIT = env_int("LOGIN_ADDRESS_FAILURE_LIMIT", 20, minimum=1)
+
+# Pages' sessions end after SESSION_IDLE_MINUTES without a request of the person using them
+# (hospital_delivery/sessions.py): nurses' stations are shared, and a page left open must not
+# stay signed in. The live pages' own re-reads of the state do not count as use.
+SESSION_IDLE_MINUTES = env_int("SESSION_IDLE_MINUTES", 30, minimum=1)
+SESSION_COOKIE_AGE = SESSION_IDLE_MINUTES * 60
+# An open page's websocket checks that its session and user still may watch the site this often
+# (ui/live/consumers.py), besides at once when the user is changed.
+LIVE_ACCESS_RECHECK_SECONDS = env_int("LIVE_ACCESS_RECHECK_SECONDS", 60, minimum=1)
 
 LOGIN_URL = "login"
 LOGIN_REDIRECT_URL = "/"
@@ -283,6 +308,10 @@ HEARTBEAT_INTERVAL_MAX = env_int("HEARTBEAT_INTERVAL_MAX", 10, minimum=1)
 # the push channel open, which wakes it at once for anything posted (robots/cadence.py); the
 # site's interval when that is longer. 0: every robot is told its site's interval.
 HEARTBEAT_IDLE_INTERVAL = env_int("HEARTBEAT_IDLE_INTERVAL", 5, minimum=0)
+
+# Push sockets one robot may hold open at once (protocol v1, "Push channel"): a newer one
+# closes the oldest with 4409 (boards/consumers.py).
+PUSH_SOCKETS_PER_ROBOT = env_int("PUSH_SOCKETS_PER_ROBOT", 3, minimum=1)
 
 CHANNEL_LAYERS = {
     "default": {
