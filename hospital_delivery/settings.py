@@ -288,6 +288,13 @@ if ALLOCATION_POLICY not in ALLOCATION_POLICIES:
 # and always when this is off, by the Celery worker.
 ALLOCATE_ON_REQUEST = env_bool("ALLOCATE_ON_REQUEST", True)
 
+# Digits of a secure delivery's PIN (scheduling/pins.py): each digit makes guessing a PIN from
+# a robot's stored plan ten times slower (docs/deployment/security.md, "PINs"). Six only for
+# robots whose keypads take no more; the plan tells robots the length (secure.pin.digits).
+SECURE_PIN_DIGITS = env_int("SECURE_PIN_DIGITS", 8, minimum=6)
+if SECURE_PIN_DIGITS > 12:
+    raise ImproperlyConfigured(f"SECURE_PIN_DIGITS={SECURE_PIN_DIGITS}: at most 12")
+
 # Bearer token that may scrape /metrics (besides operators' and staff's logins); none if empty.
 METRICS_TOKEN = env_str("METRICS_TOKEN", "")
 
