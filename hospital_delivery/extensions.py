@@ -10,7 +10,7 @@ answers.
 
 from celery.signals import task_success
 from django.contrib.auth import get_user_model
-from django.contrib.auth.signals import user_logged_out, user_login_failed
+from django.contrib.auth.signals import user_logged_in, user_logged_out, user_login_failed
 from django.db.backends.signals import connection_created
 from django.db.models.signals import m2m_changed, post_delete, post_save
 
@@ -19,7 +19,7 @@ from boards.hooks import heartbeat_applied
 from building import receivers as building
 from core import watchdog
 from core.changes import changed
-from hospital_delivery import privatefiles, signin
+from hospital_delivery import privatefiles, sessions, signin
 from resources import receivers as resources
 from resources.hooks import availability_changed, lease_changed
 from robots.hooks import presence_changed, token_issued
@@ -47,6 +47,8 @@ def connect() -> None:
     # Then, for other hospital systems, a task's status change becomes a webhook delivery
     # stored in the same transaction (sent after commit, retried until answered).
     changed.connect(publish.on_change, webhooks.on_change)
+    # A new session counts as used just now (its idle time, hospital_delivery/sessions.py).
+    user_logged_in.connect(sessions.on_logged_in, dispatch_uid="session-idle-login")
     # Every failed sign-in counts against its client address (the sign-in throttle).
     user_login_failed.connect(signin.on_login_failed, dispatch_uid="signin-throttle")
     # Logging out closes that session's live pages (Django's own signal).
