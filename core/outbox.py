@@ -10,8 +10,13 @@ hold every heartbeat of that robot, and on SQLite the whole database, for the cl
 order. If Redis stalls, the queue waits there; past MAX_PENDING the newest is dropped (and
 logged), which costs at most one heartbeat interval of delay (robots) or a re-read (pages).
 With settings.OUTBOX_THREAD off (the test process) it runs the callable at once instead.
+
+The thread is a daemon, so it would die with a process that exits right after queueing (a
+management command: `manage.py robot_token` closing the old token's push sockets); at exit
+the process waits up to EXIT_DRAIN_SECONDS for what is queued to be sent.
 """
 
+import atexit
 import logging
 import os
 import queue
@@ -24,6 +29,7 @@ from django.conf import settings
 logger = logging.getLogger(__name__)
 
 MAX_PENDING = 10_000
+EXIT_DRAIN_SECONDS = 5
 
 _lock = threading.Lock()
 _state: dict = {"pid": None, "queue": None}
@@ -59,6 +65,7 @@ def _queue() -> queue.Queue:
                 pending: queue.Queue = queue.Queue(maxsize=MAX_PENDING)
                 threading.Thread(target=_work, args=(pending,), name="outbox", daemon=True).start()
                 _state.update(pid=os.getpid(), queue=pending)
+                atexit.register(drain, EXIT_DRAIN_SECONDS)
     return _state["queue"]
 
 

@@ -9,18 +9,21 @@ answers.
 """
 
 from celery.signals import task_success
-from django.contrib.auth.signals import user_logged_out
+from django.contrib.auth import get_user_model
+from django.contrib.auth.signals import user_logged_in, user_logged_out, user_login_failed
 from django.db.backends.signals import connection_created
+from django.db.models.signals import m2m_changed, post_delete, post_save
 
 from boards import push
 from boards.hooks import heartbeat_applied
 from building import receivers as building
 from core import watchdog
 from core.changes import changed
-from hospital_delivery import privatefiles
+from hospital_delivery import privatefiles, sessions, signin
 from resources import receivers as resources
 from resources.hooks import availability_changed, lease_changed
 from robots.hooks import presence_changed, token_issued
+from robots.models import SiteMembership
 from scheduling import receivers as scheduling
 from ui.live import publish
 from webhooks import receivers as webhooks
@@ -44,8 +47,25 @@ def connect() -> None:
     # Then, for other hospital systems, a task's status change becomes a webhook delivery
     # stored in the same transaction (sent after commit, retried until answered).
     changed.connect(publish.on_change, webhooks.on_change)
+    # A new session counts as used just now (its idle time, hospital_delivery/sessions.py).
+    user_logged_in.connect(sessions.on_logged_in, dispatch_uid="session-idle-login")
+    # Every failed sign-in counts against its client address (the sign-in throttle).
+    user_login_failed.connect(signin.on_login_failed, dispatch_uid="signin-throttle")
     # Logging out closes that session's live pages (Django's own signal).
     user_logged_out.connect(publish.on_user_logged_out, dispatch_uid="ui-live-logout")
+    # A user deactivated, deleted, moved between groups or sites: their live pages check their
+    # access again and close if it is gone (Django's model signals).
+    user = get_user_model()
+    for name, signal in (("saved", post_save), ("deleted", post_delete)):
+        signal.connect(publish.on_user_saved, sender=user, dispatch_uid=f"ui-live-user-{name}")
+        signal.connect(
+            publish.on_membership_changed,
+            sender=SiteMembership,
+            dispatch_uid=f"ui-live-membership-{name}",
+        )
+    m2m_changed.connect(
+        publish.on_user_groups_changed, sender=user.groups.through, dispatch_uid="ui-live-groups"
+    )
     # Each sweep that finishes records when (the sweeps' watchdog, which /healthz, every page and
     # the metrics read; Celery's own signal).
     task_success.connect(watchdog.sweep_ran, weak=False, dispatch_uid="sweeps-watchdog")

@@ -36,3 +36,15 @@ class ApiToken(models.Model):
             user=user, defaults={"token_hash": hashed, "created_at": timezone.now()}
         )
         return token
+
+
+class SignInThrottle(models.Model):
+    """Failed sign-ins from one client address within a window (hospital_delivery/signin.py):
+    past the limit, that address's sign-ins are refused before any password is hashed."""
+
+    address = models.GenericIPAddressField(unique=True)
+    window_started_at = models.DateTimeField(db_index=True)
+    failures = models.PositiveIntegerField(default=0)
+
+    def __str__(self):
+        return f"{self.address}: {self.failures} failed sign-ins since {self.window_started_at}"

@@ -6,6 +6,11 @@ itself. nginx reads a request's whole body before passing it on, so a client sen
 at a time ties up an nginx connection, not one of gunicorn's few sync workers (gunicorn's own
 documentation asks for such a buffering proxy in front of sync workers).
 
+Each request carries the client's address to Django: nginx appends the address it received it
+from to X-Forwarded-For (and sets X-Real-IP to it), and Django trusts that many entries from
+the right as settings.TRUSTED_PROXY_COUNT says (1 for this proxy; core/clientaddress.py), so a
+client's own X-Forwarded-For entries, to the left, count for nothing.
+
 Heartbeats that a push-channel wake caused (header `Woken-By`, docs/robot-protocol.md) go to
 gunicorn's second socket (`web_woken`), which it binds first: each free worker takes a
 connection waiting there before the next regular one, so a woken robot is answered within
@@ -92,6 +97,7 @@ http {{
             proxy_set_header Connection $connection_upgrade;
             proxy_set_header Host $http_host;
             proxy_set_header X-Forwarded-For $proxy_add_x_forwarded_for;
+            proxy_set_header X-Real-IP $remote_addr;
             proxy_read_timeout 1h;  # pages and robots keep their sockets open
         }}
 
@@ -101,6 +107,7 @@ http {{
             proxy_set_header Connection "";
             proxy_set_header Host $http_host;
             proxy_set_header X-Forwarded-For $proxy_add_x_forwarded_for;
+            proxy_set_header X-Real-IP $remote_addr;
             proxy_request_buffering on;  # the whole body first: slow clients never reach gunicorn
             proxy_buffering on;
         }}

@@ -3,6 +3,7 @@
 Bad values stop the process at start-up (see env.py) instead of surfacing later.
 """
 
+import ipaddress
 from datetime import timedelta
 from pathlib import Path
 
@@ -88,6 +89,11 @@ MIDDLEWARE = [
     "django.contrib.messages.middleware.MessageMiddleware",
     "django.middleware.clickjacking.XFrameOptionsMiddleware",
     "core.middleware.CSPMiddleware",  # django-csp's, its policy built once
+    # A person's request keeps their session alive for SESSION_IDLE_MINUTES more.
+    "hospital_delivery.sessions.SessionIdleMiddleware",
+    # Sign-in posts from an address with too many failures: the lock-out page, before the view
+    # hashes a password (hospital_delivery/signin.py).
+    "hospital_delivery.signin.SignInThrottleMiddleware",
     # Last, as django-axes requires: it answers a locked-out login with the lockout page.
     "axes.middleware.AxesMiddleware",
 ]
@@ -189,6 +195,26 @@ AXES_LOCKOUT_PARAMETERS = [["username", "ip_address"]]
 AXES_RESET_ON_SUCCESS = True
 AXES_LOCKOUT_TEMPLATE = "registration/locked_out.html"
 AXES_VERBOSE = False
+# The client's address: behind a proxy every request comes from the proxy, so the address is
+# read from X-Forwarded-For, trusting as many entries from its right as there are proxies in
+# front of Django that append to it (core/clientaddress.py). 1: the nginx of scripts/run.sh
+# (hospital_delivery/proxy.py); 0: Django reached directly; 2: a load balancer before it.
+TRUSTED_PROXY_COUNT = env_int("TRUSTED_PROXY_COUNT", 1, minimum=0)
+AXES_CLIENT_IP_CALLABLE = "core.clientaddress.client_address"
+# Failed sign-ins from one address, whatever the usernames, within LOGIN_LOCKOUT_MINUTES after
+# which that address's sign-ins are refused before any password is hashed until the window
+# ends (hospital_delivery/signin.py). Above LOGIN_FAILURE_LIMIT: a nurses' station shared by
+# several people stays usable while one of them is locked out.
+LOGIN_ADDRESS_FAILURE_LIMIT = env_int("LOGIN_ADDRESS_FAILURE_LIMIT", 20, minimum=1)
+
+# Pages' sessions end after SESSION_IDLE_MINUTES without a request of the person using them
+# (hospital_delivery/sessions.py): nurses' stations are shared, and a page left open must not
+# stay signed in. The live pages' own re-reads of the state do not count as use.
+SESSION_IDLE_MINUTES = env_int("SESSION_IDLE_MINUTES", 30, minimum=1)
+SESSION_COOKIE_AGE = SESSION_IDLE_MINUTES * 60
+# An open page's websocket checks that its session and user still may watch the site this often
+# (ui/live/consumers.py), besides at once when the user is changed.
+LIVE_ACCESS_RECHECK_SECONDS = env_int("LIVE_ACCESS_RECHECK_SECONDS", 60, minimum=1)
 
 LOGIN_URL = "login"
 LOGIN_REDIRECT_URL = "/"
@@ -262,6 +288,13 @@ if ALLOCATION_POLICY not in ALLOCATION_POLICIES:
 # and always when this is off, by the Celery worker.
 ALLOCATE_ON_REQUEST = env_bool("ALLOCATE_ON_REQUEST", True)
 
+# Digits of a secure delivery's PIN (scheduling/pins.py): each digit makes guessing a PIN from
+# a robot's stored plan ten times slower (docs/deployment/security.md, "PINs"). Six only for
+# robots whose keypads take no more; the plan tells robots the length (secure.pin.digits).
+SECURE_PIN_DIGITS = env_int("SECURE_PIN_DIGITS", 8, minimum=6)
+if SECURE_PIN_DIGITS > 12:
+    raise ImproperlyConfigured(f"SECURE_PIN_DIGITS={SECURE_PIN_DIGITS}: at most 12")
+
 # Bearer token that may scrape /metrics (besides operators' and staff's logins); none if empty.
 METRICS_TOKEN = env_str("METRICS_TOKEN", "")
 
@@ -282,6 +315,10 @@ HEARTBEAT_INTERVAL_MAX = env_int("HEARTBEAT_INTERVAL_MAX", 10, minimum=1)
 # the push channel open, which wakes it at once for anything posted (robots/cadence.py); the
 # site's interval when that is longer. 0: every robot is told its site's interval.
 HEARTBEAT_IDLE_INTERVAL = env_int("HEARTBEAT_IDLE_INTERVAL", 5, minimum=0)
+
+# Push sockets one robot may hold open at once (protocol v1, "Push channel"): a newer one
+# closes the oldest with 4409 (boards/consumers.py).
+PUSH_SOCKETS_PER_ROBOT = env_int("PUSH_SOCKETS_PER_ROBOT", 3, minimum=1)
 
 CHANNEL_LAYERS = {
     "default": {
@@ -313,6 +350,17 @@ PRESENCE_SWEEP_SECONDS = env_int("PRESENCE_SWEEP_SECONDS", 1, minimum=1)
 SWEEP_SECONDS = env_int("SWEEP_SECONDS", 1, minimum=1)
 # Webhook deliveries whose retry time came (or whose Celery message was lost) are sent by a sweep.
 WEBHOOK_SWEEP_SECONDS = env_int("WEBHOOK_SWEEP_SECONDS", 5, minimum=1)
+# Webhooks never reach loopback, private, link-local, multicast, reserved or the server's own
+# addresses (webhooks/targets.py) except inside these networks, e.g. 10.20.0.0/16 for the
+# hospital's laboratory system: comma-separated, CIDR or single addresses.
+WEBHOOK_ALLOWED_NETWORKS = env_list("WEBHOOK_ALLOWED_NETWORKS", [])
+for _network in WEBHOOK_ALLOWED_NETWORKS:
+    try:
+        ipaddress.ip_network(_network, strict=False)
+    except ValueError:
+        raise ImproperlyConfigured(
+            f"WEBHOOK_ALLOWED_NETWORKS: {_network!r} is not a network (use e.g. 10.20.0.0/16)"
+        ) from None
 
 # The building's lifts and doors (building/): "sim" drives simulated ones (the demo, tests),
 # "mqtt" a building integrator's controller over MQTT (docs/building-devices.md), "none" none.

@@ -3,6 +3,7 @@ from datetime import timedelta
 from django import forms
 from django.utils import timezone
 
+from core.dates import date_out_of_range
 from robots.models import Site
 
 LONGEST = timedelta(days=400)
@@ -10,13 +11,34 @@ DEFAULT_DAYS = 30
 
 
 class ReportForm(forms.Form):
-    """Which site and which days (inclusive, in the site's time zone)."""
+    """Which site (of `sites`, the user's) and which days (inclusive, in the site's time
+    zone)."""
 
     site = forms.ModelChoiceField(
-        queryset=Site.objects.order_by("code"), to_field_name="code", required=False
+        queryset=Site.objects.none(), to_field_name="code", required=False
     )
     date_from = forms.DateField(required=False, label="From")
     date_to = forms.DateField(required=False, label="To")
+
+    def __init__(self, *args, sites: list[Site], **kwargs):
+        super().__init__(*args, **kwargs)
+        self.sites = sites
+        ids = [site.pk for site in sites]
+        self.fields["site"].queryset = Site.objects.filter(pk__in=ids).order_by("code")
+
+    def clean_date_from(self):
+        return self._bounded("date_from")
+
+    def clean_date_to(self):
+        return self._bounded("date_to")
+
+    def _bounded(self, name: str):
+        value = self.cleaned_data.get(name)
+        if value is not None:
+            why = date_out_of_range(value, today=timezone.localdate())
+            if why:
+                raise forms.ValidationError(why)
+        return value
 
     def clean(self):
         data = super().clean()
@@ -32,7 +54,5 @@ class ReportForm(forms.Form):
         elif data["date_to"] - data["date_from"] > LONGEST:
             self.add_error("date_from", f"a report covers at most {LONGEST.days} days")
         if data.get("site") is None:
-            data["site"] = Site.objects.order_by("code").first()
-            if data["site"] is None:
-                self.add_error("site", "no site is loaded yet (manage.py load_site FILE)")
+            data["site"] = self.sites[0]
         return data

@@ -19,10 +19,11 @@ from prometheus_client.registry import Collector
 from reports import monitoring
 
 
-def exposition(*, now: datetime) -> bytes:
-    """Every metric, in Prometheus' text format."""
+def exposition(*, now: datetime, sites: frozenset[str] | None = None) -> bytes:
+    """Every metric, in Prometheus' text format; the per-site series only of `sites` (codes)
+    when given, those of every site when None."""
     state = CollectorRegistry(auto_describe=False)
-    state.register(FleetCollector(now))
+    state.register(FleetCollector(now, sites))
     return _process_metrics() + generate_latest(state)
 
 
@@ -37,8 +38,12 @@ def _process_metrics() -> bytes:
 class FleetCollector(Collector):
     """Gauges read at scrape time."""
 
-    def __init__(self, now: datetime):
+    def __init__(self, now: datetime, sites: frozenset[str] | None = None):
         self.now = now
+        self.sites = sites
+
+    def _of_sites(self, rows: list[dict]) -> list[dict]:
+        return rows if self.sites is None else [row for row in rows if row["site"] in self.sites]
 
     def collect(self):
         yield from self._robots()
@@ -50,7 +55,7 @@ class FleetCollector(Collector):
 
     def _robots(self):
         robots = _gauge("hd_robots", "Robots by presence and reported status", "presence", "status")
-        for row in monitoring.robots_by_state():
+        for row in self._of_sites(monitoring.robots_by_state()):
             robots.add_metric([row["site"], row["presence"], row["status"]], row["n"])
         load = _gauge(
             "hd_robot_items_on_board",
@@ -59,7 +64,7 @@ class FleetCollector(Collector):
             "presence",
         )
         offline = {}
-        for row in monitoring.robots_load():
+        for row in self._of_sites(monitoring.robots_load()):
             load.add_metric([row["site"], row["code"], row["presence"]], row["load"])
             carrying = row["presence"] != "online" and row["load"] > 0
             offline[row["site"]] = offline.get(row["site"], 0) + carrying
@@ -73,7 +78,7 @@ class FleetCollector(Collector):
 
     def _tasks(self):
         tasks = _gauge("hd_tasks", "Delivery tasks by status", "status")
-        for row in monitoring.tasks_by_status():
+        for row in self._of_sites(monitoring.tasks_by_status()):
             tasks.add_metric([row["site"], row["status"]], row["n"])
         late = _gauge(
             "hd_tasks_past_due",
@@ -81,7 +86,7 @@ class FleetCollector(Collector):
             "due_by, or its site's due time for its priority)",
             "priority",
         )
-        for row in monitoring.tasks_past_due(self.now):
+        for row in self._of_sites(monitoring.tasks_past_due(self.now)):
             late.add_metric([row["site"], row["priority"]], row["n"])
         yield from (tasks, late)
 
@@ -93,7 +98,7 @@ class FleetCollector(Collector):
             "resource",
             "kind",
         )
-        for row in monitoring.lease_queues(self.now):
+        for row in self._of_sites(monitoring.lease_queues(self.now)):
             labels = [row["site"], row["resource"], row["kind"]]
             queued.add_metric(labels, row["queued"])
             oldest.add_metric(labels, row["oldest_wait"])
@@ -104,7 +109,7 @@ class FleetCollector(Collector):
         oldest = _gauge(
             "hd_board_message_oldest_pending_seconds", "Age of the oldest unacked board message"
         )
-        for row in monitoring.board_pending(self.now):
+        for row in self._of_sites(monitoring.board_pending(self.now)):
             pending.add_metric([row["site"]], row["pending"])
             oldest.add_metric([row["site"]], row["oldest_age"])
         yield from (pending, oldest)

@@ -48,9 +48,33 @@ class SiteFileInvalid(Exception):
 # --- Reading ----------------------------------------------------------------------------------
 
 
+# How deep a site file's structure may nest: a real one goes six levels down (floors, a floor,
+# its edges, an edge, ...). Deeper is refused before it is built, so a hostile file cannot
+# exhaust Python's recursion (a 500) or the validator's time.
+MAX_DEPTH = 20
+# How many values (mappings, lists and scalars, each alias counted as what it repeats) a file
+# may hold: a large hospital's file holds tens of thousands. Aliases (*name) let a few hundred
+# bytes stand for millions of values (each level repeating the one before ten times: a
+# "billion laughs"), which every later step (the check, the stored draft) would expand.
+MAX_VALUES = 200_000
+
+
 class _UniqueKeyLoader(yaml.SafeLoader):
     """yaml.safe_load, except that a key given twice in one mapping is an error, not a
-    silent overwrite (a repeated `code:` would otherwise hide a typo)."""
+    silent overwrite (a repeated `code:` would otherwise hide a typo); and that nesting past
+    MAX_DEPTH is refused while reading, before Python's recursion runs out."""
+
+    def compose_node(self, parent, index):
+        event = self.peek_event()
+        self._depth = getattr(self, "_depth", 0) + 1
+        try:
+            if self._depth > MAX_DEPTH:
+                raise yaml.composer.ComposerError(
+                    None, None, f"nested deeper than {MAX_DEPTH} levels", event.start_mark
+                )
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
 
     def construct_mapping(self, node, deep=False):
         seen = set()
@@ -106,14 +130,37 @@ def site_file_parse(text: str, *, name: str) -> dict:
     JSON is a subset); SiteFileInvalid if it is not one or does not hold a mapping."""
     suffix = Path(name).suffix.lower()
     parse = _PARSERS.get(suffix, _yaml)
+    kind = suffix[1:] if suffix in _PARSERS else "YAML"
     try:
         data = parse(text)
     except (yaml.YAMLError, ValueError) as exc:
-        kind = suffix[1:] if suffix in _PARSERS else "YAML"
         raise SiteFileInvalid([f"{name}: not valid {kind}: {exc}"]) from None
+    except RecursionError:
+        raise SiteFileInvalid([f"{name}: nested deeper than {MAX_DEPTH} levels"]) from None
+    too_big = _too_big(data)
+    if too_big:
+        raise SiteFileInvalid([f"{name}: {too_big}"])
     if not isinstance(data, dict):
         raise SiteFileInvalid([f"{name}: the file must hold a mapping (site, floors, ...)"])
     return data
+
+
+def _too_big(data) -> str | None:
+    """Why `data` is too deep or, with its aliases expanded, too large; None if it is not.
+    Walked without recursion, and stopped at the first limit passed (an alias may even refer to
+    itself)."""
+    values, stack = 0, [(data, 1)]
+    while stack:
+        value, depth = stack.pop()
+        values += 1
+        if values > MAX_VALUES:
+            return f"holds more than {MAX_VALUES} values once its aliases (*name) are expanded"
+        if isinstance(value, dict | list):
+            if depth > MAX_DEPTH:
+                return f"nested deeper than {MAX_DEPTH} levels"
+            children = value.values() if isinstance(value, dict) else value
+            stack.extend((child, depth + 1) for child in children)
+    return None
 
 
 # --- Validation -------------------------------------------------------------------------------
@@ -173,17 +220,22 @@ FLOOR_FIELDS = {
     "waypoints": _Field(list, required=True),
     "edges": _Field(list),
 }
+# Metres from a floor's origin a waypoint may lie: wider than any hospital, and small enough
+# that the floor's drawing (ui/drawing.py) and travel times stay meaningful; a station typed
+# at x = 1e15 would otherwise be accepted and wait for a robot for ever.
+COORDINATE_LIMIT = 10_000
+COORDINATE = _Field(NUMBER, required=True, minimum=-COORDINATE_LIMIT, maximum=COORDINATE_LIMIT)
 WAYPOINT_FIELDS = {
     "code": _code(64),
-    "x": _Field(NUMBER, required=True),
-    "y": _Field(NUMBER, required=True),
+    "x": COORDINATE,
+    "y": COORDINATE,
     "kind": _Field(str, choices=tuple(WaypointKind.values)),
     "name": TEXT,
 }
 EDGE_FIELDS = {
     "from": _code(64),
     "to": _code(64),
-    "length": _Field(NUMBER, minimum=0),
+    "length": _Field(NUMBER, minimum=0, maximum=4 * COORDINATE_LIMIT),
     "oneway": _Field(bool),
 }
 RESOURCE_FIELDS = {

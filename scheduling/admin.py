@@ -2,7 +2,14 @@
 
 from django.contrib import admin
 
-from scheduling.models import RecurringRequest, RobotPlan, Task, TaskStop, TaskTransition
+from scheduling.models import (
+    OperatorAction,
+    RecurringRequest,
+    RobotPlan,
+    Task,
+    TaskStop,
+    TaskTransition,
+)
 
 
 class ReadOnlyInline(admin.TabularInline):
@@ -56,4 +63,22 @@ class RobotPlanAdmin(admin.ModelAdmin):
         return False
 
     def has_change_permission(self, request, obj=None):
+        return False
+
+
+@admin.register(OperatorAction)
+class OperatorActionAdmin(admin.ModelAdmin):
+    """Who told a robot, lift or door what, and when: a record, never edited."""
+
+    list_display = ["at", "action", "robot", "resource", "by", "note"]
+    list_filter = ["action"]
+    list_select_related = ["robot", "resource", "by"]
+
+    def has_add_permission(self, request):
+        return False
+
+    def has_change_permission(self, request, obj=None):
+        return False
+
+    def has_delete_permission(self, request, obj=None):
         return False

@@ -82,10 +82,14 @@ class OperatorActionKind(models.TextChoices):
 
 
 class ResourceActionKind(models.TextChoices):
-    """What an operator can do to an elevator, door or corridor (resources/availability.py)."""
+    """What an operator can do to an elevator, door or corridor (resources/availability.py),
+    and to the lift or door the server drives (building/services.py)."""
 
     OUT_OF_SERVICE = "out_of_service", "Take out of service"
     BACK_IN_SERVICE = "back_in_service", "Return to service"
+    HOLD_DOORS = "hold_doors", "Hold doors"
+    RELEASE_DOORS = "release_doors", "Let doors go"
+    SEND_CAR = "send_car", "Send car"
 
 
 OPERATOR_ACTION_CHOICES = [*OperatorActionKind.choices, *ResourceActionKind.choices]

@@ -1,12 +1,13 @@
 """The chain of custody of secure deliveries as CSV, for a date range: the pharmacy's audit."""
 
-import csv
 from datetime import date, datetime, time, timedelta
 
 from django.http import HttpResponse, JsonResponse
 from django.utils import timezone
 
 from core.access import operator_required
+from core.csvsafe import csv_writer
+from core.dates import date_out_of_range
 from scheduling.selectors import custody_between
 from ui.selectors import page_site
 
@@ -45,7 +46,7 @@ def custody_csv(request):
     response = HttpResponse(content_type="text/csv; charset=utf-8")
     name = f"custody-{site.code}-{start:%Y%m%d}-{end:%Y%m%d}.csv"
     response["Content-Disposition"] = f'attachment; filename="{name}"'
-    writer = csv.writer(response)
+    writer = csv_writer(response)
     writer.writerow(COLUMNS)
     writer.writerows(_row(entry) for entry in entries)
     return response
@@ -59,6 +60,10 @@ def _days(query) -> tuple[dict, tuple[date, date] | None]:
             found[name] = date.fromisoformat(raw)
         except ValueError:
             errors[name] = [f"a date as YYYY-MM-DD, not {raw[:20]!r}" if raw else "required"]
+            continue
+        why = date_out_of_range(found[name], today=timezone.localdate())
+        if why:
+            errors[name] = [why]
     if not errors and found["to"] < found["from"]:
         errors["to"] = ["is before from"]
     elif not errors and (found["to"] - found["from"]).days >= MAX_DAYS:

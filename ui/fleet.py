@@ -8,6 +8,7 @@ rendered by ui/live/parts.py, for the page and for its re-read after a reconnect
 from dataclasses import dataclass
 
 from django.contrib import messages
+from django.db import transaction
 from django.http import Http404, HttpResponseBadRequest, JsonResponse
 from django.shortcuts import get_object_or_404, redirect, render
 from django.urls import reverse
@@ -22,8 +23,12 @@ from robots.alerts import alert_acknowledge
 from robots.membership import site_required
 from robots.models import Alert, Floor, Resource, Robot, Site
 from robots.selectors import fleet_snapshot
-from scheduling.choices import OperatorActionKind
-from scheduling.services import resource_operator_set_service, robot_action
+from scheduling.choices import OperatorActionKind, ResourceActionKind
+from scheduling.services import (
+    resource_operator_record,
+    resource_operator_set_service,
+    robot_action,
+)
 from ui.drawing import FloorDrawing, floor_drawing, floors_of
 from ui.forms import CarSendForm, DoorHoldForm, ResourceServiceForm, RobotActionForm
 from ui.live.parts import fleet_context, resources_context, robot_context
@@ -128,7 +133,10 @@ def resource_doors_post(request, site: str, code: str):
     if not form.is_valid():
         return _invalid(form.errors)
     hold = form.cleaned_data["hold"]
-    device_hold_doors(resource=resource, hold=hold)
+    action = ResourceActionKind.HOLD_DOORS if hold else ResourceActionKind.RELEASE_DOORS
+    with transaction.atomic():
+        device_hold_doors(resource=resource, hold=hold)
+        resource_operator_record(resource=resource, action=action, by=request.user)
     messages.success(request, f"Doors of {code} {'held open' if hold else 'let go'}.")
     return _back_to_fleet(resource)
 
@@ -145,7 +153,11 @@ def resource_car_post(request, site: str, code: str):
         ).first()
     if not resource.is_elevator or floor is None:
         return _invalid({"floor": [f"{code} does not stop at that floor"]})
-    device_send_car(resource=resource, floor=floor)
+    with transaction.atomic():
+        device_send_car(resource=resource, floor=floor)
+        resource_operator_record(
+            resource=resource, action=ResourceActionKind.SEND_CAR, by=request.user, note=floor.code
+        )
     messages.success(request, f"Car of {code} sent to {floor.code}.")
     return _back_to_fleet(resource)
 

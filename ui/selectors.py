@@ -2,13 +2,9 @@
 
 from dataclasses import dataclass
 
-from django.core.exceptions import PermissionDenied
-from django.http import Http404
-
 from boards.models import RobotEvent
-from robots.membership import sites_of
+from robots.membership import site_chosen
 from robots.models import PresenceChange, Robot, Site
-from robots.selectors import sites_all
 from scheduling.models import OperatorAction
 
 RECENT_EVENTS = 20
@@ -40,16 +36,4 @@ def robot_detail(*, code: str) -> RobotDetail | None:
 def page_site(request) -> tuple[Site, list[Site]]:
     """The site a page is about (?site=<code>, else the first) and the user's sites, for a
     choice (robots/membership.py)."""
-    every = sites_all()
-    if not every:
-        raise Http404("no site is loaded yet (manage.py load_site FILE)")
-    sites = sites_of(request.user, every)
-    if not sites:
-        raise PermissionDenied("your account belongs to no site: ask an administrator")
-    code = request.POST.get("site") or request.GET.get("site")
-    if not code:
-        return sites[0], sites
-    site = next((each for each in sites if each.code == code), None)
-    if site is None:
-        raise Http404(f"no site {code!r}")
-    return site, sites
+    return site_chosen(request.user, request.POST.get("site") or request.GET.get("site"))

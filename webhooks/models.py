@@ -14,7 +14,8 @@ from django.db.models import Q
 from django.utils import timezone
 
 from scheduling.choices import TaskStatus
-from webhooks.choices import DeliveryState
+from webhooks.choices import AttemptFailure, DeliveryState
+from webhooks.targets import TargetRefused, target_check
 
 
 def secret_new() -> str:
@@ -48,6 +49,11 @@ class Subscription(models.Model):
         return f"{self.name} ({self.url})"
 
     def clean(self):
+        if self.url:
+            try:
+                target_check(self.url)
+            except TargetRefused as refused:
+                raise ValidationError({"url": [refused.reason.label]}) from None
         statuses = self.statuses
         if not isinstance(statuses, list) or not all(isinstance(s, str) for s in statuses):
             raise ValidationError({"statuses": ["a list of task statuses"]})
@@ -82,8 +88,8 @@ class WebhookDelivery(models.Model):
     attempts = models.PositiveSmallIntegerField(default=0)
     last_attempt_at = models.DateTimeField(null=True, blank=True)
     last_status_code = models.PositiveSmallIntegerField(null=True, blank=True)
-    last_answer = models.TextField(blank=True, help_text="the start of the last response body")
-    last_error = models.CharField(max_length=300, blank=True)
+    # Only the status and a fixed reason: never the answer's body or an error's text.
+    last_error = models.CharField(max_length=300, blank=True, choices=AttemptFailure)
     delivered_at = models.DateTimeField(null=True, blank=True)
 
     objects = WebhookDeliveryQuerySet.as_manager()

@@ -1,4 +1,4 @@
-"""Reads for the webhooks page."""
+"""Reads for the webhooks page, narrowed to the sites a user may see."""
 
 from django.db.models import Count, Q
 
@@ -8,14 +8,22 @@ from webhooks.models import Subscription, WebhookDelivery
 RECENT = 100
 
 
-def subscriptions_with_counts() -> list[Subscription]:
+def subscriptions_with_counts(*, site_ids: frozenset[int] | None) -> list[Subscription]:
+    """The subscriptions of `site_ids` (None: every site) with their deliveries by state."""
     counts = {
         f"n_{state}": Count("deliveries", filter=Q(deliveries__state=state))
         for state in DeliveryState.values
     }
-    return list(Subscription.objects.select_related("site").annotate(**counts))
+    rows = Subscription.objects.select_related("site")
+    if site_ids is not None:
+        rows = rows.filter(site_id__in=site_ids)
+    return list(rows.annotate(**counts))
 
 
-def deliveries_recent(*, limit: int = RECENT) -> list[WebhookDelivery]:
+def deliveries_recent(
+    *, site_ids: frozenset[int] | None, limit: int = RECENT
+) -> list[WebhookDelivery]:
     rows = WebhookDelivery.objects.select_related("subscription").order_by("-id")
+    if site_ids is not None:
+        rows = rows.filter(subscription__site_id__in=site_ids)
     return list(rows[:limit])

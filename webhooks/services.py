@@ -13,16 +13,16 @@ import json
 import logging
 from datetime import datetime, timedelta
 
-import requests
 from django.db import transaction
 from django.utils import timezone
 
 from core import changes, memo
 from core.statements import Statement
 from scheduling.models import TaskTransition
-from webhooks.choices import TASK_STATUS_CHANGED, DeliveryState
+from webhooks.choices import TASK_STATUS_CHANGED, AttemptFailure, DeliveryState
 from webhooks.models import Subscription, WebhookDelivery
 from webhooks.signing import EVENT_ID_HEADER, SIGNATURE_HEADER, TIMESTAMP_HEADER, signature
+from webhooks.targets import TargetRefused, target_check, target_post
 
 logger = logging.getLogger(__name__)
 
@@ -31,7 +31,6 @@ LONGEST_RETRY_SECONDS = 3600
 MAX_ATTEMPTS = 15  # about seven hours of trying
 TIMEOUT_SECONDS = 5
 CLAIM = timedelta(seconds=TIMEOUT_SECONDS * 4)
-ANSWER_KEPT = 1000  # characters of a response body kept for the page
 SWEEP_BATCH = 500
 
 
@@ -107,8 +106,8 @@ def delivery_send(*, delivery_id: int, now: datetime | None = None) -> bool | No
     if not claimed.update(next_attempt_at=now + CLAIM):
         return None
     delivery = WebhookDelivery.objects.select_related("subscription").get(pk=delivery_id)
-    status, answer, error = _post(delivery, now)
-    return _attempt_record(delivery, now=now, status=status, answer=answer, error=error)
+    status, failure = _post(delivery, now)
+    return _attempt_record(delivery, now=now, status=status, failure=failure)
 
 
 def delivery_attempt(*, delivery_id: int) -> float | None:
@@ -121,7 +120,9 @@ def delivery_attempt(*, delivery_id: int) -> float | None:
     return retry_delay(attempts) if attempts else None
 
 
-def _post(delivery: WebhookDelivery, now: datetime) -> tuple[int | None, str, str]:
+def _post(delivery: WebhookDelivery, now: datetime) -> tuple[int | None, str]:
+    """The answer's status (None if none came) and why the attempt failed ("" if it did not).
+    The URL is checked again first: its host may resolve elsewhere since it was saved."""
     body = delivery_body(delivery)
     timestamp = int(now.timestamp())
     headers = {
@@ -131,22 +132,25 @@ def _post(delivery: WebhookDelivery, now: datetime) -> tuple[int | None, str, st
         TIMESTAMP_HEADER: str(timestamp),
         SIGNATURE_HEADER: signature(delivery.subscription.secret, timestamp, body),
     }
-    url = delivery.subscription.url
     try:
-        response = requests.post(url, data=body, headers=headers, timeout=TIMEOUT_SECONDS)
-    except requests.RequestException as exc:
-        return None, "", f"{type(exc).__name__}: {exc}"[:300]
-    return response.status_code, response.text[:ANSWER_KEPT], ""
+        target = target_check(delivery.subscription.url)
+        status = target_post(target, body=body, headers=headers, timeout=TIMEOUT_SECONDS)
+    except TargetRefused as failed:
+        return None, failed.reason
+    if 200 <= status < 300:
+        return status, ""
+    if 300 <= status < 400:
+        return status, AttemptFailure.REDIRECT
+    return status, AttemptFailure.NOT_2XX
 
 
-def _attempt_record(delivery, *, now, status: int | None, answer: str, error: str) -> bool:
+def _attempt_record(delivery, *, now, status: int | None, failure: str) -> bool:
     delivery.attempts += 1
     delivery.last_attempt_at = now
     delivery.last_status_code = status
-    delivery.last_answer = answer
-    delivery.last_error = error
-    fields = ["attempts", "last_attempt_at", "last_status_code", "last_answer", "last_error"]
-    delivered = status is not None and 200 <= status < 300
+    delivery.last_error = failure
+    fields = ["attempts", "last_attempt_at", "last_status_code", "last_error"]
+    delivered = not failure
     if delivered:
         delivery.state, delivery.delivered_at = DeliveryState.DELIVERED, now
         fields += ["state", "delivered_at"]

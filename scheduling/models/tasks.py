@@ -81,6 +81,7 @@ class Task(models.Model):
     pin_salt = models.CharField(max_length=64, blank=True, editable=False)
     pin_iterations = models.PositiveIntegerField(default=0, editable=False)
     pin_hash = models.CharField(max_length=128, blank=True, editable=False)
+    pin_digits = models.PositiveSmallIntegerField(default=0, editable=False)
     waiting_reason = models.CharField(
         max_length=200, blank=True, help_text="why no robot took it yet"
     )
@@ -134,7 +135,12 @@ class Task(models.Model):
         """The PIN's hash (scheduling.pins.PinHash) of a secure delivery, else None."""
         if not self.secure or not self.pin_hash:
             return None
-        return PinHash(salt=self.pin_salt, iterations=self.pin_iterations, hash=self.pin_hash)
+        return PinHash(
+            salt=self.pin_salt,
+            iterations=self.pin_iterations,
+            hash=self.pin_hash,
+            digits=self.pin_digits,
+        )
 
     @property
     def is_cancellable(self) -> bool:

@@ -32,7 +32,11 @@ from scheduling.services.allocation import (
 from scheduling.services.cancellation import TaskNotCancellable, task_cancel
 from scheduling.services.events import heartbeat_tasks_apply
 from scheduling.services.faults import heartbeat_fault_check, robot_fault, robot_fault_resolve
-from scheduling.services.operator import resource_operator_set_service, robot_action
+from scheduling.services.operator import (
+    resource_operator_record,
+    resource_operator_set_service,
+    robot_action,
+)
 from scheduling.services.presence import robot_offline, robot_tasks_give_back
 from scheduling.services.recurring import recurring_stop
 from scheduling.services.requests import recurring_sweep, task_request
@@ -49,6 +53,7 @@ __all__ = [
     "recurring_stop",
     "recurring_sweep",
     "reroute_enqueue",
+    "resource_operator_record",
     "resource_operator_set_service",
     "robot_action",
     "robot_fault",

@@ -100,3 +100,14 @@ def resource_operator_set_service(
     return OperatorAction.objects.create(
         resource=resource, action=action, by=by, at=now, note=reason[:200]
     )
+
+
+def resource_operator_record(
+    *, resource: Resource, action: str, by, note: str = "", now: datetime | None = None
+) -> OperatorAction:
+    """A command of an operator to a lift or door (Hold doors, Let doors go, Send car),
+    recorded with who, when and what like the other operator actions; the caller sends the
+    command in the same transaction."""
+    return OperatorAction.objects.create(
+        resource=resource, action=action, by=by, at=now or timezone.now(), note=note[:200]
+    )

@@ -87,6 +87,7 @@ def _secure_fields(pin: str) -> dict:
         "pin_salt": hashed.salt,
         "pin_iterations": hashed.iterations,
         "pin_hash": hashed.hash,
+        "pin_digits": hashed.digits,
     }
 
 

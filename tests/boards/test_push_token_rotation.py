@@ -1,12 +1,15 @@
 """Rotating a robot's token (manage.py robot_token) closes its push sockets of the old token,
-over a real websocket to daphne."""
+and a robot keeps only its newest few sockets, over real websockets to daphne."""
 
 import asyncio
 import json
+import subprocess
+import sys
 
 import pytest
 from asgiref.sync import async_to_sync
 from channels.db import database_sync_to_async
+from django.conf import settings as django_settings
 from django.core.management import call_command
 from websockets.asyncio.client import connect
 from websockets.exceptions import ConnectionClosed
@@ -75,3 +78,51 @@ def test_a_socket_of_the_new_token_keeps_receiving_wake_ups(daphne_url, robot):
         await new.close()
 
     async_to_sync(scenario)()
+
+
+def test_the_command_closes_the_old_socket_though_its_process_exits_at_once(daphne_url, robot):
+    # `manage.py robot_token` in a process of its own, as an administrator runs it: the close
+    # is queued for its outbox thread, which must send it before the process ends.
+    command = [sys.executable, "manage.py", "robot_token", robot.code]
+
+    async def scenario():
+        old = await push_socket(daphne_url, robot, robot.token)
+        done = await asyncio.to_thread(
+            subprocess.run,
+            command,
+            cwd=servers.REPO,
+            env=servers.server_env(),
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
+        assert done.returncode == 0, done.stderr
+        return await close_code(old)
+
+    assert async_to_sync(scenario)() == 4401
+
+
+def test_a_robot_keeps_only_its_newest_push_sockets(daphne_url, robot):
+    limit = django_settings.PUSH_SOCKETS_PER_ROBOT  # as daphne reads it
+
+    async def scenario():
+        sockets = [await push_socket(daphne_url, robot, robot.token) for _ in range(limit + 2)]
+        oldest = [await close_code(each) for each in sockets[:2]]
+        newest = sockets[2:]
+        message = await database_sync_to_async(board_post)(
+            robot=robot, type="action", body={"action": "pause"}
+        )
+        woken = []
+        for each in newest:
+            async with asyncio.timeout(10):
+                while (wake := json.loads(await each.recv()))["message"] != message.public_id:
+                    pass
+            woken.append(wake["type"])
+            await each.close()
+        return oldest, woken
+
+    oldest, woken = async_to_sync(scenario)()
+
+    assert oldest == [4409, 4409]
+    assert woken == ["wake"] * limit

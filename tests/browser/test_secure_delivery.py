@@ -43,9 +43,9 @@ def test_a_secure_delivery_from_order_to_custody_record(
     page.get_by_label("Drop-off").fill("Ward 3")
     page.get_by_label("Secure (PIN)").check()
     page.get_by_role("button", name="Request delivery").click()
-    shown = page.get_by_text(re.compile(r"PIN for T-\d+: \d{6}"))
+    shown = page.get_by_text(re.compile(r"PIN for T-\d+: \d{8}"))
     expect(shown).to_be_visible()
-    pin = re.search(r"PIN for T-\d+: (\d{6})", shown.inner_text()).group(1)
+    pin = re.search(r"PIN for T-\d+: (\d{8})", shown.inner_text()).group(1)
     task = Task.objects.get()
     assert task.secure
     page.reload()

@@ -37,7 +37,7 @@ from robotsim.traffic import HttpTaskApi
 from scheduling.models import Task, TaskStop, TaskTransition
 from tests import factories, servers
 from tests.reports.metrics import value
-from tests.webhooks.conftest import subscribe
+from tests.webhooks.conftest import LOOPBACK, subscribe
 from tests.webhooks.receiver import HookReceiver
 
 pytestmark = [pytest.mark.slow, pytest.mark.django_db(transaction=True)]
@@ -81,14 +81,16 @@ def stack(transactional_db, tmp_path):
         "METRICS_TOKEN": METRICS_TOKEN,
         "PROMETHEUS_MULTIPROC_DIR": str(tmp_path),
         "WEBHOOK_SWEEP_SECONDS": "1",
+        "WEBHOOK_ALLOWED_NETWORKS": ",".join(LOOPBACK),  # the receivers listen on 127.0.0.1
     }
     with Stack(database_url=url, web_workers=2, beat=True, env=env) as stack:
         yield stack
 
 
 @pytest.fixture
-def receivers(site):
+def receivers(site, settings):
     """Another system that answers at once, and one that fails its first five requests."""
+    settings.WEBHOOK_ALLOWED_NETWORKS = LOOPBACK
     with HookReceiver() as steady, HookReceiver(fail_first=5) as flaky:
         steady.subscription = subscribe(site, steady.url, name="Laboratory system")
         flaky.subscription = subscribe(site, flaky.url, name="Pharmacy system")

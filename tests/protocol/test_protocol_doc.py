@@ -37,6 +37,7 @@ from functools import cache
 from pathlib import Path
 
 import pytest
+from django.conf import settings
 from django.utils import timezone
 from django.utils.dateparse import parse_datetime
 from rest_framework import serializers
@@ -63,7 +64,7 @@ from robots.services import robot_token_issue
 from robots.sitefile import site_file_read, site_load
 from robotsim.client import badge_check, pin_check
 from scheduling.models import Task, TaskStop
-from scheduling.pins import ALGORITHM, PinHash, pin_matches
+from scheduling.pins import ALGORITHM, ITERATIONS, PinHash, pin_matches
 from scheduling.services import robot_action
 
 # -------------------------------------------------------------------------------------------------
@@ -696,7 +697,7 @@ def test_it_shapes_every_wake_as_the_push_channel_sends_it():
 def test_its_pin_hashes_open_for_the_pins_it_states_and_no_other():
     """The worked secure delivery states its PINs; its plan's hashes are theirs, checked as the
     server makes them and as the reference client checks them."""
-    stated = re.findall(r"the PINs `(\d{6})` and `(\d{6})`", doc_text())
+    stated = re.findall(r"the PINs `(\d{6,12})` and `(\d{6,12})`", doc_text())
     assert stated, f"{DOC.name} states no PINs for its secure example"
     pins = dict(zip(("T-0045", "T-0046"), stated[0], strict=True))
     secure = {
@@ -709,9 +710,11 @@ def test_its_pin_hashes_open_for_the_pins_it_states_and_no_other():
         wire = secure[code]["pin"]
         hashed = PinHash(salt=wire["salt"], iterations=wire["iterations"], hash=wire["hash"])
         assert wire["algorithm"] == ALGORITHM
+        assert wire["iterations"] == ITERATIONS
+        assert wire["digits"] == len(pin) == settings.SECURE_PIN_DIGITS
         assert pin_matches(pin, hashed), f"{code}: {pin} does not match its documented hash"
         assert pin_check(pin, secure[code]), f"{code}: the reference client refuses {pin}"
-        assert not pin_check("000000", secure[code])
+        assert not pin_check("0" * len(pin), secure[code])
 
 
 def test_its_badge_hashes_open_for_the_badge_it_states_and_name_its_holder():

@@ -267,7 +267,9 @@ def test_reports_are_for_operators(nurse, site):
         ({"date_from": "yesterday"}, "date_from"),
         ({"date_to": "2026-13-01"}, "date_to"),
         ({"date_from": "2024-01-01", "date_to": "2026-01-01"}, "date_from"),
-        ({"site": "nowhere"}, "site"),
+        ({"date_from": "9999-12-01", "date_to": "9999-12-31"}, "date_from"),
+        ({"date_to": "9999-12-31"}, "date_to"),
+        ({"date_from": "0001-01-01"}, "date_from"),
     ],
 )
 def test_bad_input_is_refused_naming_the_field(operator, site, query, field):
@@ -279,6 +281,15 @@ def test_bad_input_is_refused_naming_the_field(operator, site, query, field):
     assert field in response.json()["detail"]
     page = client.get("/reports/", query)
     assert page.status_code == 400
+
+
+def test_an_unknown_site_is_404_naming_it(operator, site):
+    client = Client()
+    client.force_login(operator)
+    response = client.get("/reports/per_day.csv", {"site": "nowhere"})
+    assert response.status_code == 404
+    assert "site" in response.json()["detail"]
+    assert client.get("/reports/", {"site": "nowhere"}).status_code == 404
 
 
 def test_an_unknown_table_is_404_in_the_error_shape(operator, site):

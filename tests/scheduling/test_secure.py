@@ -74,7 +74,7 @@ def test_the_pin_is_answered_once_and_only_its_salted_hash_is_kept(api, site):
 
     assert created.status_code == 201, created.content
     pin = created.json()["pin"]
-    assert re.fullmatch(r"\d{6}", pin)
+    assert re.fullmatch(r"\d{8}", pin)  # SECURE_PIN_DIGITS
     task = Task.objects.get()
     assert task.secure
     assert pin not in (task.pin_hash, task.pin_salt)
@@ -172,10 +172,27 @@ def test_the_plan_lets_the_robot_check_the_pin_offline(locking, site):
 
     secure = plan["tasks"][task.code]["secure"]
     assert secure["max_attempts"] == 3
-    assert set(secure["pin"]) == {"algorithm", "iterations", "salt", "hash"}
+    assert set(secure["pin"]) == {"algorithm", "iterations", "salt", "hash", "digits"}
     assert pin_check(task.pin_plain, secure)
-    assert not pin_check("000000" if task.pin_plain != "000000" else "111111", secure)
+    wrong = "0" * 8 if task.pin_plain != "0" * 8 else "1" * 8
+    assert not pin_check(wrong, secure)
     assert task.pin_plain not in str(plan)
+
+
+def test_guessing_a_pin_from_a_robots_plan_takes_500_times_the_work_it_did(locking, site):
+    # Whoever reads a robot's storage has each plan's salt, iterations and hash: they must try
+    # every code of the PIN's length, each at the full iteration count. Six digits at 120,000
+    # iterations took a few core-hours (docs/deployment/security.md, "PINs").
+    task = request(site, secure=True)
+    assert task_allocate(task_id=task.pk)
+    [plan] = plans(Beater(locking).beat())
+    pin = plan["tasks"][task.code]["secure"]["pin"]
+
+    work = 10 ** pin["digits"] * pin["iterations"]  # PBKDF2 iterations to try every code
+
+    assert pin["digits"] == len(task.pin_plain) >= 8
+    assert pin["iterations"] >= 600_000
+    assert work >= 500 * 10**6 * 120_000
 
 
 def test_every_hand_off_is_kept_in_the_custody_record_and_history(locking, site, nurse):

@@ -6,6 +6,7 @@ import pytest
 import requests
 from axes.models import AccessAttempt
 from django.conf import settings
+from django.contrib.auth.hashers import PBKDF2PasswordHasher
 from django.core.management import call_command
 
 from tests import factories
@@ -95,3 +96,45 @@ def test_an_administrator_sees_and_deletes_lockouts_in_the_admin(live_server):
     assert not AccessAttempt.objects.filter(username="kim").exists()
     session, response = login(live_server.url, "/accounts/login/", "kim", factories.PASSWORD)
     assert response.status_code == 302
+
+
+@pytest.fixture
+def hashes(monkeypatch):
+    """How many times the password hasher ran (checking a password, or the stand-in check
+    Django runs for an unknown username)."""
+    calls = []
+    encode = PBKDF2PasswordHasher.encode
+
+    def counted(self, *args, **kwargs):
+        calls.append(1)
+        return encode(self, *args, **kwargs)
+
+    monkeypatch.setattr(PBKDF2PasswordHasher, "encode", counted)
+    return calls
+
+
+def test_an_address_trying_many_usernames_is_throttled_before_any_hash(
+    live_server, settings, hashes
+):
+    settings.LOGIN_ADDRESS_FAILURE_LIMIT = 4
+    factories.user_create("kim", "nurse")
+    hashes.clear()  # its password's
+    for n in range(4):  # never the same username twice: django-axes alone never trips
+        _, response = login(live_server.url, "/accounts/login/", f"nobody{n}", "wrong")
+        assert response.status_code == 200
+    assert len(hashes) == 4  # an unknown username costs a hash too, so timing tells nothing
+    hashes.clear()
+
+    refused = [
+        login(live_server.url, path, username, password)[1]
+        for path, username, password in [
+            ("/accounts/login/", "nobody9", "wrong"),
+            ("/admin/login/", "admin", "wrong"),
+            ("/accounts/login/", "kim", factories.PASSWORD),
+        ]
+    ]
+
+    assert [response.status_code for response in refused] == [429, 429, 429]
+    assert "tried from this computer" in refused[-1].text
+    assert hashes == []  # none of them ran the hasher
+    assert settings.SESSION_COOKIE_NAME not in refused[-1].cookies

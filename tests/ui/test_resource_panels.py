@@ -70,6 +70,22 @@ def test_an_operator_holds_the_doors_and_sends_the_car(operator_client, devices)
     assert lift.request_seq == 2
 
 
+def test_lift_and_door_commands_are_recorded_with_who_when_and_what(
+    operator_client, operator, devices
+):
+    operator_client.post("/resources/tiny/ELEV/doors", {"hold": "true"})
+    operator_client.post("/resources/tiny/ELEV/car", {"floor": "3F"})
+    operator_client.post("/resources/tiny/ELEV/doors", {"hold": "false"})
+
+    actions = OperatorAction.objects.order_by("id")
+    assert [(a.resource.code, a.action, a.by_id, a.note) for a in actions] == [
+        ("ELEV", "hold_doors", operator.pk, ""),
+        ("ELEV", "send_car", operator.pk, "3F"),
+        ("ELEV", "release_doors", operator.pk, ""),
+    ]
+    assert all(a.at is not None and a.robot is None for a in actions)
+
+
 @pytest.mark.parametrize(
     ("path", "body", "field"),
     [

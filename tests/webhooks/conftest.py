@@ -11,6 +11,16 @@ def celery_sink_queue():
         yield queue
 
 
+LOOPBACK = ["127.0.0.0/8"]
+
+
+@pytest.fixture(autouse=True)
+def loopback_allowed(settings):
+    """The receivers of these tests listen on 127.0.0.1, which webhooks refuse unless allowed
+    (tests/webhooks/test_webhook_targets.py shows the refusal)."""
+    settings.WEBHOOK_ALLOWED_NETWORKS = LOOPBACK
+
+
 @pytest.fixture
 def sent(monkeypatch):
     """Delivery ids handed to Celery (the message itself is not sent)."""

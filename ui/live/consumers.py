@@ -1,15 +1,21 @@
 """The pages' websocket: every live event of one site (ui/live/publish.py), forwarded as
-{"kind": ..., "data": ...}. It authenticates, joins groups and forwards; no queries beyond
-authentication and finding the site.
+{"kind": ..., "data": ...}. It authenticates, joins groups and forwards; it queries only to
+authenticate, to find the site, and to check again that its user still may watch it.
 """
+
+import asyncio
+from importlib import import_module
 
 from channels.db import database_sync_to_async
 from channels.generic.websocket import AsyncJsonWebsocketConsumer
+from django.conf import settings
+from django.contrib.auth import HASH_SESSION_KEY, SESSION_KEY, get_user_model
+from django.utils.crypto import constant_time_compare
 
 from core.access import is_member
 from robots.membership import may_see_site
 from robots.models import Site
-from ui.live.publish import session_group, site_group
+from ui.live.publish import session_group, site_group, user_group
 
 CLOSE_UNAUTHORIZED = 4401
 CLOSE_FORBIDDEN = 4403
@@ -23,8 +29,13 @@ class SiteConsumer(AsyncJsonWebsocketConsumer):
     (or staff), and an allowed Origin (AllowedHostsOriginValidator, hospital_delivery/routing.py).
     Refusals accept first and then close, so the close code reaches the browser: 4401 not
     logged in, 4403 not allowed, 4404 no such site. The group is joined before the socket is
-    accepted, so a page that re-reads the state once open misses no event in between. When its
-    login session logs out, the socket closes with 4401 (other sessions of the user stay open).
+    accepted, so a page that re-reads the state once open misses no event in between.
+
+    Access is checked again for as long as the socket is open: when its session logs out, or
+    its user is changed (deactivated, out of a group, off the site: a message to the user's
+    group, from whichever process made the change), and every LIVE_ACCESS_RECHECK_SECONDS, which
+    also finds a session that has expired (SESSION_IDLE_MINUTES) and changes no message told of.
+    The socket then closes: 4401 to log in again, 4403 if the user may no longer watch the site.
     """
 
     async def connect(self):
@@ -35,23 +46,46 @@ class SiteConsumer(AsyncJsonWebsocketConsumer):
             await self.accept()
             await self.close(code=refusal)
             return
-        self.groups = [site_group(site_id)]
-        session_key = self.scope["session"].session_key
-        if session_key:
-            self.groups.append(session_group(session_key))
+        self.site_id, self.user_id = site_id, user.pk
+        self.session_key = self.scope["session"].session_key
+        self.groups = [site_group(site_id), user_group(user.pk)]
+        if self.session_key:
+            self.groups.append(session_group(self.session_key))
         for group in self.groups:
             await self.channel_layer.group_add(group, self.channel_name)
         await self.accept()  # the base class leaves self.groups when the socket closes
+        self.rechecks = asyncio.create_task(self._recheck_every())
+
+    async def disconnect(self, code):
+        rechecks = getattr(self, "rechecks", None)
+        if rechecks is not None:
+            rechecks.cancel()
 
     async def session_ended(self, event):
         """Its session logged out (ui.live.publish.on_user_logged_out): log in again."""
         await self.close(code=CLOSE_UNAUTHORIZED)
+
+    async def access_changed(self, event):
+        """Its user was changed (ui.live.publish.on_access_changed): may they still watch?"""
+        await self._recheck()
 
     async def receive_json(self, content, **kwargs):
         """Pages only listen: everything they do goes through HTTP."""
 
     async def site_event(self, event):
         await self.send_json({"kind": event["kind"], "data": event["data"]})
+
+    async def _recheck_every(self):
+        while True:
+            await asyncio.sleep(settings.LIVE_ACCESS_RECHECK_SECONDS)
+            await self._recheck()
+
+    async def _recheck(self):
+        refusal = await database_sync_to_async(access_withdrawn)(
+            session_key=self.session_key, user_id=self.user_id, site_id=self.site_id
+        )
+        if refusal:
+            await self.close(code=refusal)
 
 
 def _site_access(user, code: str) -> tuple[int | None, int | None]:
@@ -66,3 +100,24 @@ def _site_access(user, code: str) -> tuple[int | None, int | None]:
     if not may_see_site(user, site_id):
         return CLOSE_FORBIDDEN, None
     return None, site_id
+
+
+def access_withdrawn(*, session_key: str | None, user_id: int, site_id: int) -> int | None:
+    """The close code if the socket's session or user may no longer watch the site, else None:
+    the session read afresh (gone, expired, or its password changed: 4401), the user too
+    (deactivated or deleted: 4401; out of the groups or off the site: 4403)."""
+    user = get_user_model().objects.filter(pk=user_id, is_active=True).first()
+    if user is None or not _session_valid(session_key, user):
+        return CLOSE_UNAUTHORIZED
+    if not is_member(user) or not may_see_site(user, site_id):
+        return CLOSE_FORBIDDEN
+    return None
+
+
+def _session_valid(session_key: str | None, user) -> bool:
+    if not session_key:
+        return False
+    data = import_module(settings.SESSION_ENGINE).SessionStore(session_key).load()
+    if data.get(SESSION_KEY) != str(user.pk):
+        return False
+    return constant_time_compare(data.get(HASH_SESSION_KEY, ""), user.get_session_auth_hash())

@@ -2,8 +2,10 @@
 watching the site, as {"kind", "data"} on their websocket (ui/live/consumers.py), once the
 transaction that made the change commits.
 
-Two groups: every page of a site ("site-<id>"), and the pages of one login session
-("session-<hash>"), which close when it logs out.
+Three groups: every page of a site ("site-<id>"); the pages of one login session
+("session-<hash>"), which close when it logs out; and the pages of one user ("user-<id>"),
+which check their access again when the user is changed (deactivated, moved between groups,
+added to or removed from a site), and close if it is gone.
 """
 
 import hashlib
@@ -38,6 +40,10 @@ def session_group(session_key: str) -> str:
     return f"session-{hashlib.sha256(session_key.encode()).hexdigest()[:32]}"
 
 
+def user_group(user_id: int) -> str:
+    return f"user-{user_id}"
+
+
 def on_change(*, kind: str, site_id: int, subject, **detail) -> None:
     """The receiver of core.changes.changed: the payload now (the subject as it is at this
     point of the transaction), sent after commit."""
@@ -60,3 +66,37 @@ def on_user_logged_out(sender, request, user, **kwargs) -> None:
         group = session_group(session_key)
         send = lambda: group_send(group, message)  # noqa: E731
         transaction.on_commit(lambda: send_soon(send, what="closing a session's pages"))
+
+
+def access_changed_on_commit(*, user_ids) -> None:
+    """Ask the pages of these users to check their access again, after commit. Sent through
+    Redis, so the pages' sockets hear it in whichever process serves them."""
+    message = {"type": "access.changed"}
+    for user_id in set(user_ids):
+        group = user_group(user_id)
+        send = lambda group=group: group_send(group, message)  # noqa: E731
+        transaction.on_commit(lambda send=send: send_soon(send, what="checking pages' access"))
+
+
+def on_user_saved(sender, instance, update_fields=None, created=False, **kwargs) -> None:
+    """post_save and post_delete of a user: active, staff, deleted. A new user has no pages
+    open, and a login saves last_login only, which changes no access."""
+    if created or (update_fields is not None and set(update_fields) <= {"last_login"}):
+        return
+    access_changed_on_commit(user_ids=[instance.pk])
+
+
+def on_user_groups_changed(sender, instance, action, reverse, pk_set, **kwargs) -> None:
+    """m2m_changed of a user's groups, from either side (user.groups or group.user_set)."""
+    if not reverse:
+        if action.startswith("post_"):
+            access_changed_on_commit(user_ids=[instance.pk])
+    elif action == "pre_clear":  # group.user_set.clear(): its members, while they still are
+        access_changed_on_commit(user_ids=list(instance.user_set.values_list("pk", flat=True)))
+    elif action in ("post_add", "post_remove"):
+        access_changed_on_commit(user_ids=pk_set)
+
+
+def on_membership_changed(sender, instance, **kwargs) -> None:
+    """post_save and post_delete of a SiteMembership."""
+    access_changed_on_commit(user_ids=[instance.user_id])
