@@ -30,6 +30,7 @@ from pathlib import Path
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from bench import saving
 from bench.instances import Instance, building, one_to_one, random_instance
 from scheduling.allocator import (
     TOLERANCE,
@@ -75,11 +76,13 @@ class Row:
     route_excess: list[float] = field(default_factory=list)  # its route / optimal route - 1
 
 
+@saving.saves("allocation")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small counts, for CI")
     parser.add_argument("--burst", action="store_true", help="only the burst table")
     parser.add_argument("--rule", action="store_true", help="only the default rule's table")
+    saving.add_argument(parser)
     options = parser.parse_args(argv)
     settings = QUICK if options.quick else FULL
     _print_header(settings, one_table=options.burst or options.rule)

@@ -23,16 +23,19 @@ from pathlib import Path
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from bench import saving
 from bench.stack import database_option, temporary_database
 
 ROOT = Path(__file__).resolve().parent.parent
 SITE_FILE = ROOT / "sites" / "eulji.yaml"
 
 
+@saving.saves("building_sweep")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="20 sweeps each: for CI")
     database_option(parser)
+    saving.add_argument(parser)
     options = parser.parse_args()
     sweeps = 20 if options.quick else 200
     with temporary_database(options.database) as url:

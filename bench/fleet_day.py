@@ -45,6 +45,8 @@ from pathlib import Path
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from bench import saving  # noqa: E402
+
 ROOT = Path(__file__).resolve().parent.parent
 SITE_FILE = ROOT / "sites" / "eulji.yaml"
 DAY = datetime.date(2026, 3, 2)  # a Monday
@@ -89,6 +91,7 @@ class Result:
     lowest_battery: float  # the lowest battery any robot reported
 
 
+@saving.saves("fleet_day")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="one hour, 2 robots: for CI")
@@ -98,6 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--minutes", type=int, help="requests for this long from 08:00")
     parser.add_argument("--child", choices=POLICIES, help=argparse.SUPPRESS)
     parser.add_argument("--out", help=argparse.SUPPRESS)
+    saving.add_argument(parser)
     args = parser.parse_args(argv)
     settings = QUICK if args.quick else FULL
     settings = Settings(

@@ -12,17 +12,17 @@ realistic body (state at its dock, no events), waiting for each answer and then 
 told before the next, as the protocol asks; when the server falls behind the robots fall behind
 with it, so "achieved" is what the server sustains. Each robot keeps one boot_id, its seq
 rising, for the whole run (all rows), as a running fleet does: it does not restart every row,
-and the first heartbeat of a boot costs more queries (before 2026-11-23 each row was a new boot:
-a third of the heartbeats at 1000 robots were first ones). In the same run the same load goes
+and the first heartbeat of a boot costs more queries (a new boot every row would make a third of
+the heartbeats at 1000 robots first ones). In the same run the same load goes
 to `POST /bench/bare`, a DRF view that returns `{}` (no authentication, no database): the ratio
 is what the heartbeat's own work costs.
 
 The load generator is one asyncio process with raw HTTP/1.1 (a connection per request: gunicorn's
 sync workers close each one), sending through nginx as robots do in production. It shares the
 2-core machine with the server; its own CPU use is printed so it can be seen not to be the
-bottleneck. Until 2026-11-27 it sent straight to gunicorn (--direct), which lingers after each
+bottleneck. Sent straight to gunicorn (--direct), the load meets gunicorn lingering after each
 answer until its client closes (gunicorn 27): a generator slowed by hundreds of connections
-held the workers in that wait, 40 % of their time with 300 robots on a 2-core machine (py-spy),
+holds the workers in that wait, 40 % of their time with 300 robots on a 2-core machine (py-spy),
 against 3 % through nginx, which closes at once.
 """
 
@@ -46,6 +46,7 @@ from pathlib import Path
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from bench import saving
 from bench.stack import SilentRedis, Stack, temporary_database
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -78,7 +79,7 @@ class Settings:
 
 # A row's robots that were not in the row before start together, and their first heartbeats
 # (new boots, or presence coming back after the bare row) cost more: the learned interval takes
-# 20-40 s to settle after that (bench/heartbeat.py --timeline, 2026-11-27), and a row measures
+# 20-40 s to settle after that (bench/heartbeat.py --timeline), and a row measures
 # the fleet once settled (3 s until then).
 FULL = Settings(counts=(100, 200, 500, 1000), warmup=30.0, measure=15.0, stalled=100)
 QUICK = Settings(counts=(20, 50), warmup=1.0, measure=2.0, stalled=20)
@@ -108,6 +109,7 @@ class Load:
         self.errors[kind] = self.errors.get(kind, 0) + 1
 
 
+@saving.saves("heartbeat")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small counts, short: for CI")
@@ -136,8 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--direct",
         action="store_true",
-        help="send the robots' load straight to gunicorn, not through nginx as in production "
-        "(as this benchmark did until 2026-11-27)",
+        help="send the robots' load straight to gunicorn, not through nginx as in production",
     )
     parser.add_argument(
         "--timeline",
@@ -145,6 +146,7 @@ def main(argv: list[str] | None = None) -> int:
         help="after the table, each heartbeat row second by second: answers, latency, the "
         "interval told and the connections waiting for a worker",
     )
+    saving.add_argument(parser)
     args = parser.parse_args(argv)
     settings = QUICK if args.quick else FULL
     settings = Settings(
@@ -418,9 +420,9 @@ def listen_queue(port: int) -> int:
 async def _robot(port, code, token, endpoint, first, window, load: Load, begin: float) -> None:
     """One robot: a heartbeat from `first`, then each the interval it was told after the
     previous one's answer (1 s until told, and for the bare endpoint), as the protocol asks
-    (docs/robot-protocol.md, "Interval"). Until 2026-11-27 it was that interval after the
-    previous one was sent, or at once if answered later: a robot whose heartbeat had queued came
-    back as much sooner than it was told, and robots leaving a backlog came back together."""
+    (docs/robot-protocol.md, "Interval"). Timed from the previous one's send instead (or at once
+    if answered later), a robot whose heartbeat had queued would come back as much sooner than it
+    was told, and robots leaving a backlog would come back together."""
     loop = asyncio.get_running_loop()
     boot, due, interval = BOOTS.setdefault(code, Boot()), first, _interval_kept(code, endpoint)
     path = f"/api/v1/robots/{code}/heartbeat" if endpoint == "heartbeat" else "/bench/bare"

@@ -30,6 +30,7 @@ from pathlib import Path
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from bench import saving
 from bench.stack import database_option, temporary_database
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -37,10 +38,12 @@ SITE_FILE = ROOT / "sites" / "eulji.yaml"
 WARMUP = 200  # heartbeats before measuring: caches (site map, router, statements) filled
 
 
+@saving.saves("heartbeat_cpu")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="2 rounds of 100: for CI")
     database_option(parser)
+    saving.add_argument(parser)
     options = parser.parse_args()
     rounds, per_round = (2, 100) if options.quick else (5, 1000)
     with temporary_database(options.database) as url:

@@ -6,8 +6,7 @@
     python bench/heartbeat_instructions.py --delivery # 30 delivery cycles counted (--quick: 3)
 
 bench/heartbeat_cpu.py divides CPU time by heartbeats, and on a shared machine that time moves
-by a third between runs of the same code (1.6 to 2.7 ms a heartbeat by process time, in rounds
-of this script's loop, 2026-11-24). This counts instructions
+by as much as a third between runs of the same code. This counts instructions
 instead, with valgrind's callgrind (Debian's package `valgrind`), which counts the same for the
 same code and input whatever else the machine runs: a change of 1 % shows. A robot at its dock
 heartbeats (no events, acks or requests; the body of bench/heartbeat.py) through Django's WSGI
@@ -49,6 +48,7 @@ from urllib.parse import urlsplit
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from bench import saving
 from bench.heartbeat import heartbeat_body
 from bench.stack import database_option, temporary_database
 
@@ -58,6 +58,7 @@ WARMUP = 20  # heartbeats in both runs: caches (site map, statements, prepared q
 CYCLES_WARMUP = 5  # delivery cycles likewise (--delivery)
 
 
+@saving.saves("heartbeat_instructions")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="20 heartbeats counted: for CI")
@@ -67,6 +68,7 @@ def main() -> None:
     parser.add_argument("--send", type=int, help=argparse.SUPPRESS)  # the child under valgrind
     parser.add_argument("--robot", default="R1", help=argparse.SUPPRESS)
     database_option(parser)
+    saving.add_argument(parser)
     options = parser.parse_args()
     if options.send is not None and options.delivery:
         _child(_cycler(options.database), options.send, CYCLES_WARMUP)

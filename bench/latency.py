@@ -41,6 +41,7 @@ if __package__ in (None, ""):  # run as a script: make the repository root impor
 
 import requests
 
+from bench import saving
 from bench.stack import Stack, temporary_database
 from robotsim.client import RobotClient, listen_for_wakes
 
@@ -102,6 +103,7 @@ class Outcome:
     lost: int = 0  # requests whose plan never reached a robot in time
 
 
+@saving.saves("latency")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small counts: for CI")
@@ -122,6 +124,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--push", choices=["no", "yes", "both"], default="both", help="without, with or both"
     )
+    saving.add_argument(parser)
     args = parser.parse_args(argv)
     rows = args.rows or (QUICK_ROWS if args.quick else FULL_ROWS)
     pushes = {"no": (False,), "yes": (True,), "both": (False, True)}[args.push]

@@ -30,11 +30,13 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from bench import saving  # noqa: E402
 from bench.stack import temporary_database  # noqa: E402
 
 SITE_FILE = ROOT / "sites" / "eulji.yaml"
 
 
+@saving.saves("reports")
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="3,000 deliveries, 30 days: CI")
@@ -46,6 +48,7 @@ def main(argv: list[str] | None = None) -> int:
         default=os.environ.get("DATABASE_URL", "postgres://postgres@127.0.0.1:5432/postgres"),
         help="a PostgreSQL server to create the benchmark's database on",
     )
+    saving.add_argument(parser)
     args = parser.parse_args(argv)
     deliveries = args.deliveries or (3000 if args.quick else 100_000)
     runs = args.runs or (2 if args.quick else 5)

@@ -36,11 +36,13 @@ from pathlib import Path
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from bench import saving
 from bench.stack import database_option, queue_forget, temporary_database
 
 WARMUP = 30  # requests before measuring: caches (site map, statements, serializers) filled
 
 
+@saving.saves("request_cpu")
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="2 rounds of 20: for CI")
@@ -48,6 +50,7 @@ def main() -> None:
         "--allocating", action="store_true", help="one robot, each request allocated in it"
     )
     database_option(parser)
+    saving.add_argument(parser)
     options = parser.parse_args()
     rounds, per_round = (2, 20) if options.quick else (5, 100)
     with temporary_database(options.database) as url:

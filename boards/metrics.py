@@ -1,4 +1,4 @@
-"""Prometheus instruments of the heartbeat, the hot path (README, "Monitoring").
+"""Prometheus instruments of the heartbeat, the hot path (docs/deployment/monitoring.md).
 
 Counted and timed in the web worker that answers; with PROMETHEUS_MULTIPROC_DIR set (run.sh),
 each gunicorn worker writes its figures to a memory-mapped file there and the scrape adds

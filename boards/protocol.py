@@ -11,7 +11,7 @@ from boards.models import BoardMessage
 
 
 def wire_time(moment: datetime) -> str:
-    """2026-11-22T09:14:03.131Z"""
+    """UTC to the millisecond, as the protocol writes times: YYYY-MM-DDThh:mm:ss.sssZ."""
     return moment.astimezone(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z")
 
 

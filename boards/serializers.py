@@ -176,9 +176,10 @@ def heartbeat_plain(body, site_map) -> dict | None:
     second (its state and when it was sent, maybe acks, no events or requests), or None for any
     other body, which the serializer then validates and, if it is wrong, names what is.
 
-    The serializer's run over such a body was a tenth of the instructions a heartbeat costs the
-    server (callgrind, 2026-11-24). This takes only values the serializer would take unchanged
-    (ASCII text without surrounding spaces, numbers in range, known codes), so the two agree
+    The serializer's run over such a body is a large share of the instructions a heartbeat costs
+    the server (bench/heartbeat_instructions.py). This takes only values the serializer would
+    take unchanged (ASCII text without surrounding spaces, numbers in range, known codes), so the
+    two agree
     wherever this answers (tests/boards/test_heartbeat_plain.py checks it on generated bodies).
     """
     if not isinstance(body, dict):

@@ -13,12 +13,11 @@ the machine: the heartbeat cadence learns it there (robots/cadence.py), with the
 the process used (time.process_time, every thread of it), since what a request costs depends on
 what it is.
 
-The share of wall time spent inside requests, which this module measured until 2026-11-27, does
-not tell that: part of each request's cost is outside what a middleware can time (gunicorn
-reading the request, and lingering after the answer until the client closes, up to 2 s: 40 % of
-a worker's time with 300 robots sent straight to gunicorn on a 2-core machine, py-spy, README),
-so the share read 29 % while 997 connections waited, and the cadence shortened the interval in
-the middle of an overload (bench/heartbeat.py --timeline, 2026-11-27).
+The share of wall time spent inside requests does not tell that: part of each request's cost is
+outside what a middleware can time (gunicorn reading the request, and lingering after the answer
+until the client closes, up to 2 s: 40 % of a worker's time with 300 robots sent straight to
+gunicorn on a 2-core machine, py-spy), so the share read 29 % while 997 connections waited, and the
+cadence shortened the interval in the middle of an overload (bench/heartbeat.py --timeline).
 
 Two clock readings, one getsockopt per socket and a few additions per request; no query.
 """
@@ -91,7 +90,7 @@ class BusyMeter:
     Requests and processor time are this process's, or the whole pool's once the gunicorn
     master shared them before forking its workers (pool_share): each process's own window
     scaled by the pool's size read the pool's rate from 93 to 200 a second from one window to
-    the next while it served about 180 (bench/heartbeat.py, 2026-11-27)."""
+    the next while it served about 180 (bench/heartbeat.py)."""
 
     def __init__(
         self, *, clock=time.monotonic, cpu=time.process_time, window: float = WINDOW_SECONDS

@@ -6,8 +6,8 @@ PostgreSQL's `synchronous_commit = off`, set for one transaction (SET LOCAL): th
 before the write-ahead log reaches the disk (the WAL writer flushes it within
 wal_writer_delay, 200 ms by default). A crash of the database server in that window loses the
 transaction; it can never corrupt or half-apply it, and other transactions' commits keep their
-durability. On our 2-core machines one WAL flush took 2.4 to 3.8 ms (pg_test_fsync, 2026-11-23),
-longer than the heartbeat's own work, and nearly every heartbeat writes only its robot's row.
+durability. One WAL flush can take longer than the heartbeat's own work (pg_test_fsync shows
+it), and nearly every heartbeat writes only its robot's row.
 
 Everything else still waits: a transaction that wrote to any other table (a board message, an
 event, an ack, a task given back) commits as usual.

@@ -63,8 +63,8 @@ class CSPMiddleware(csp.CSPMiddleware):
     """django-csp's middleware, sending the policy built once from the settings.
 
     django-csp 4.0 builds both policies (enforced and report-only) from the settings on every
-    response, before it looks whether it sends them: 6 % of the instructions a robot's
-    heartbeat cost the server (bench/heartbeat_instructions.py, 2026-11-24). A response whose
+    response, before it looks whether it sends them: a noticeable share of the instructions a
+    robot's heartbeat costs the server (bench/heartbeat_instructions.py). A response whose
     policy nothing changed (no nonce asked for; no csp, csp_update, csp_replace or csp_exempt
     decorator on its view, and none of ours has one) gets the headers built once; any other
     goes through django-csp as before.

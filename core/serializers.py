@@ -11,7 +11,7 @@ class FieldsKeptPerThread:
 
     DRF deep-copies every declared field of a serializer for each instance, nested serializers
     and their fields included: for the heartbeat some twenty fields made again on every request,
-    a fifth of its CPU (bench/heartbeat_cpu.py, README "Serving"). A field keeps nothing of a
+    a large share of its CPU (bench/heartbeat_cpu.py). A field keeps nothing of a
     validation, only the serializer it is bound to, through which it reaches the `context`; so
     each thread keeps the first instance's fields, and every later instance of the class takes
     them over as their parent. One thread validates one body at a time, so no two instances

@@ -1,13 +1,15 @@
-"""Screenshots of the pages for the README: docs/screenshots/{deliveries,floor-map,robot}.png
+"""The screenshots the documentation shows, made from the real pages: docs/images/*.png
 
     .venv/bin/python docs/screenshots.py
 
-Runs on a throwaway SQLite database: migrates it, loads sites/eulji.yaml, starts gunicorn and
-daphne as the Procfile does, puts the four robots around the hospital by heartbeats over HTTP
-(R2 rides the elevator, R3 waits for it, R4 holds the 6th floor's narrow corridor), orders
-deliveries through the scheduling services, and photographs the pages with Debian's Chromium
-(CHROMIUM_PATH, default /usr/bin/chromium). Needs Redis (REDIS_URL, default the local one) for
-the pages' live connection. Leaves nothing behind but the PNG files.
+Runs on a throwaway SQLite database: migrates it, loads sites/eulji.yaml, generates a month of
+history for the reports (reports/seed.py), starts gunicorn and daphne as the Procfile does, puts
+the four robots around the hospital by heartbeats over HTTP (R2 rides the elevator, R3 waits
+for it, R4 holds the 6th floor's narrow corridor), orders deliveries through the scheduling
+services, and photographs the pages with Debian's Chromium (CHROMIUM_PATH, default
+/usr/bin/chromium) as a nurse, an operator and an administrator would see them. Needs Redis
+(REDIS_URL, default the local one) for the pages' live connection. Leaves nothing behind but
+the PNG files; run it after changing a page the documentation shows (CONTRIBUTING.md).
 """
 
 import itertools
@@ -16,11 +18,11 @@ import shutil
 import sys
 import tempfile
 import uuid
-from datetime import timedelta
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
-OUT = REPO / "docs" / "screenshots"
+OUT = REPO / "docs" / "images"
 PASSWORD = "screenshots-only"
 
 
@@ -47,13 +49,15 @@ def main() -> None:
     try:
         call_command("migrate", verbosity=0)
         call_command("load_site", str(REPO / "sites" / "eulji.yaml"))
+        history()
         with servers.daphne() as ws, servers.gunicorn(env={"WEBSOCKET_URL": ws.url}) as http:
-            scene(http)
-            photograph(http)
+            robots = scene(http)
+            photograph(http, robots)
     finally:
         from hospital_delivery.celery import app
 
         servers.celery_queue_delete(app, os.environ["CELERY_QUEUE"])
+        sweeps_fresh(forget=True)
         shutil.rmtree(workdir, ignore_errors=True)
 
 
@@ -80,7 +84,7 @@ class Robot:
         body = {
             "boot_id": f"{self.code}-boot",
             "seq": self.seq,
-            "sent_at": "2026-11-22T09:14:03.120Z",
+            "sent_at": datetime.now(UTC).isoformat(timespec="milliseconds").replace("+00:00", "Z"),
             "state": self.state,
             "events": [{"id": f"{self.code}-e{next(self.events)}", **e} for e in events],
             "acks": self.acks,
@@ -120,13 +124,25 @@ def allocate(task) -> str:
     return robot.code if robot else "nobody"
 
 
-def scene(http: str) -> None:
+def history() -> None:
+    """A month of deliveries before today, for the reports page; its alerts long acknowledged."""
+    from django.utils import timezone
+
+    from reports.seed import history_seed
+    from robots.models import Alert, Site
+
+    today = timezone.localtime().replace(hour=0, minute=0, second=0, microsecond=0)
+    history_seed(site=Site.objects.get(code="eulji"), deliveries=900, days=30, end=today)
+    Alert.objects.update(acknowledged_at=today)
+
+
+def scene(http: str) -> dict:
     """Four robots at work on a weekday morning at Eulji University Hospital."""
     from django.contrib.auth.models import Group, User
     from django.utils import timezone
 
     from robots.models import Robot as RobotRow
-    from robots.models import Site
+    from robots.models import Site, SiteMembership
     from scheduling.services import robot_action
 
     site = Site.objects.get(code="eulji")
@@ -136,6 +152,9 @@ def scene(http: str) -> None:
     operator.last_name = "Park"
     operator.save()
     operator.groups.add(Group.objects.get(name="operator"))
+    for user in (nurse, operator):
+        SiteMembership.objects.create(user=user, site=site)
+    User.objects.create_superuser("hana", password=PASSWORD, first_name="Hana")
     r1, r2, r3, r4 = (Robot(http, code) for code in ("R1", "R2", "R3", "R4"))
 
     # R3 brings sterile kits to the operating theatre, then fails at the laboratory's door.
@@ -302,9 +321,23 @@ def scene(http: str) -> None:
     for _ in range(2):  # every robot acks what it received
         for robot in (r1, r2, r3, r4):
             robot.beat()
+    return {"R1": r1, "blood": blood.code}
 
 
-def photograph(http: str) -> None:
+def sweeps_fresh(forget: bool = False) -> None:
+    """No Celery beat runs here: record every sweep as just run, so that the pages show a healthy
+    server rather than the banner of stopped sweeps (or, with `forget`, remove those records)."""
+    from core.redisclient import redis_client
+    from core.watchdog import _key, _sweeps, sweep_record
+
+    for name in _sweeps():
+        if forget:
+            redis_client().delete(_key(name))
+        else:
+            sweep_record(name)
+
+
+def photograph(http: str, robots: dict) -> None:
     from playwright.sync_api import expect, sync_playwright
 
     from tests import servers
@@ -312,24 +345,52 @@ def photograph(http: str) -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     with sync_playwright() as playwright:
         browser = servers.chromium_launch(playwright)
-        context = browser.new_context(
-            base_url=http, viewport={"width": 1440, "height": 900}, locale="en-GB"
+
+        def pages(user: str, shots: list[tuple[str, str, str]], *, whole: bool = True) -> None:
+            """Each (path, a selector to wait for, file) as `user` sees it; `whole`: the whole
+            page, else what the window shows (the top of a long page)."""
+            context = browser.new_context(
+                base_url=http, viewport={"width": 1280, "height": 860}, locale="en-GB"
+            )
+            page = context.new_page()
+            page.goto("/accounts/login/")
+            page.get_by_label("Username").fill(user)
+            page.get_by_label("Password").fill(PASSWORD)
+            page.get_by_role("button", name="Log in").click()
+            expect(page.get_by_role("button", name="Log out")).to_be_visible()
+            for path, ready, name in shots:
+                sweeps_fresh()
+                page.goto(path)
+                expect(page.locator(ready).first).to_be_visible()
+                status = page.locator("#live-status")
+                if status.count() and status.get_attribute("data-state") != "off":
+                    expect(status).to_have_text("Live")
+                page.mouse.move(0, 0)
+                page.screenshot(path=OUT / name, full_page=whole)
+                print(f"wrote {OUT / name}")
+            context.close()
+
+        pages("minji", [("/", "#request-title", "deliveries.png")])
+        pages(
+            "jisoo",
+            [
+                ("/fleet/?floor=6F", "#live-status", "fleet.png"),
+                ("/robots/R1/", "#live-status", "robot.png"),
+            ],
         )
-        page = context.new_page()
-        page.goto("/accounts/login/")
-        page.get_by_label("Username").fill("jisoo")
-        page.get_by_label("Password").fill(PASSWORD)
-        page.get_by_role("button", name="Log in").click()
-        for path, name in [
-            ("/", "deliveries.png"),
-            ("/fleet/?floor=6F", "floor-map.png"),
-            ("/robots/R1/", "robot.png"),
-        ]:
-            page.goto(path)
-            expect(page.locator("#live-status")).to_have_text("Live")
-            page.mouse.move(0, 0)
-            page.screenshot(path=OUT / name, full_page=True)
-            print(f"wrote {OUT / name}")
+        pages("jisoo", [("/reports/", "canvas", "reports.png")], whole=False)
+        editor = ("/maps/eulji/edit", "#editor-waypoints > *", "map-editor.png")
+        pages("hana", [editor], whole=False)
+        # R1 reaches the laboratory with the blood samples and waits to be unloaded.
+        robots["R1"].beat(
+            status="waiting_unload",
+            floor="2F",
+            waypoint="2F-LAB-DROP",
+            x=4,
+            y=34,
+            events=[{"type": "arrived", "task": robots["blood"], "stop": 1}],
+        )
+        pages("minji", [("/stations/2F-LAB-DROP/", ".announce-here", "station.png")])
         browser.close()
 
 

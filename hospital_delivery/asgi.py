@@ -1,5 +1,6 @@
 """ASGI entry point. In production it serves only the websockets; HTTP goes to gunicorn (WSGI),
-which runs sync views several times faster than an ASGI server can (see README, "Serving")."""
+which runs sync views several times faster than an ASGI server can
+(docs/architecture/decisions/serving.md)."""
 
 import os
 

@@ -24,9 +24,9 @@ from pathlib import Path
 # than this, and the app refuses what it must with its own error shape first.
 CLIENT_MAX_BODY = "3m"
 # Each robot's heartbeat takes two connections while it is proxied (the robot's and gunicorn's)
-# and each push channel two for as long as it is open, pages' sockets the same: 1,024 (nginx's
-# default) ran out with 1,000 robots heartbeating ("worker_connections are not enough", resets;
-# bench/heartbeat.py, 2026-11-27). The open files nginx may hold follow.
+# and each push channel two for as long as it is open, pages' sockets the same: nginx's default
+# of 1,024 runs out with a thousand robots heartbeating ("worker_connections are not enough",
+# connections reset). The open files nginx may hold follow.
 WORKER_CONNECTIONS = 16384
 
 

@@ -23,8 +23,8 @@ if not SECRET_KEY:
 ALLOWED_HOSTS = env_list("ALLOWED_HOSTS", ["localhost", "127.0.0.1", "[::1]"])
 CSRF_TRUSTED_ORIGINS = env_list("CSRF_TRUSTED_ORIGINS", [])
 
-# Serving over HTTPS (README, "Production"): HTTPS=true makes cookies Secure, sends HSTS and
-# redirects plain HTTP (except /healthz, which load balancers probe). Behind a TLS proxy,
+# Serving over HTTPS (docs/deployment/production.md): HTTPS=true makes cookies Secure, sends
+# HSTS and redirects plain HTTP (except /healthz, which load balancers probe). Behind a TLS proxy,
 # SECURE_PROXY_SSL_HEADER names the header it sets, e.g. X-Forwarded-Proto=https (only
 # where the proxy overwrites that header: a client could send it otherwise).
 HTTPS = env_bool("HTTPS", False)
@@ -306,8 +306,7 @@ HEARTBEAT_MAX_BYTES = 64 * 1024
 # (robots/cadence.py), as it is whenever the web workers are saturated below it (learned from
 # the queue of connections waiting for them, core/busy.py). 0 turns every lengthening off.
 # 1,000 by default, about what a bare endpoint takes on 2 cores: below it the learned interval
-# does the work. At 250 (until 2026-11-27) the ceiling held 1,000 robots to 222 heartbeats a
-# second on a machine that served them 416 with it at 1,000 (bench/heartbeat.py, README).
+# does the work, and a lower ceiling would slow robots a server could still take.
 HEARTBEAT_CAPACITY = env_int("HEARTBEAT_CAPACITY", 1000, minimum=0)
 # The longest interval ever told; with many robots on a small server, past it heartbeats queue.
 HEARTBEAT_INTERVAL_MAX = env_int("HEARTBEAT_INTERVAL_MAX", 10, minimum=1)

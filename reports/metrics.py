@@ -1,4 +1,4 @@
-"""The Prometheus exposition at /metrics (README, "Monitoring").
+"""The Prometheus exposition at /metrics (docs/deployment/monitoring.md).
 
 Two parts. Counters and histograms kept by the processes that do the work: heartbeats
 (boards/metrics.py), allocations (scheduling/metrics.py), lease waits (resources/metrics.py);

@@ -1,5 +1,5 @@
-"""Prometheus instruments of the resource controller (README, "Monitoring"): how long robots
-waited for an elevator, door or corridor, observed when the grant is made."""
+"""Prometheus instruments of the resource controller (docs/deployment/monitoring.md): how long
+robots waited for an elevator, door or corridor, observed when the grant is made."""
 
 from prometheus_client import Histogram
 

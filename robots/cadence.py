@@ -35,7 +35,7 @@ The capacity is learned, not set, from the queue of connections waiting for a we
 Every process judges, and the one that changes the interval writes it, with the capacity it
 learned, to one shared row (HeartbeatCadence), which the others read every COUNT_SECONDS and
 adopt: judged by each process alone, the intervals parted (one process kept 2.5 s for a minute
-while the others told 1.5 s, 2026-11-25), and the robots each process answered heartbeated at
+while the others told 1.5 s), and the robots each process answered heartbeated at
 its own. Where the queue cannot be read (no gunicorn: tests, runserver) nothing is learned.
 
 settings.HEARTBEAT_CAPACITY stays the operator's ceiling: the robots not offline, heartbeating
@@ -72,7 +72,7 @@ AIM = 0.92
 SHARE_MEMORY = 60.0
 # The processor time a request costs with the queue standing, over what the same request costs
 # below saturation (contention for caches and processors): 7-8 against 5.2-6.3 ms for a plain
-# heartbeat on a 2-core machine (bench/heartbeat.py --timeline, 2026-11-27). Read below
+# heartbeat on a 2-core machine (bench/heartbeat.py --timeline). Read below
 # saturation without it, the capacity came out 15-20 % too high and the interval shortened
 # into a queue.
 LOADED_COST = 1.1
@@ -85,9 +85,8 @@ PROBE_QUIET = 30.0
 # A queue that stood but kept a heartbeat waiting less than this share of the interval in force
 # (its fewest waiting over the rate served) lengthens nothing: the pool serves all it can, and
 # the wait costs the robots less than a longer interval would. Lengthened for every such queue,
-# 1,000 robots told 4.5 s by the ceiling of 250 (the default then), 30-45 waiting while 210 a
-# second were served, were told 5.05 s and sent 175 a second, where the cadence before (a busy
-# share, which did not act there) let them send 216 (bench/heartbeat.py, 2026-11-27).
+# 1,000 robots held to 4.5 s by a ceiling of 250, 30-45 waiting while 210 a second were served,
+# were told 5.05 s and sent 175 a second instead of 216 (bench/heartbeat.py).
 QUEUE_TOLERATED = 0.25
 # The learned interval is told in steps of this many seconds, and not changed by less than
 # HOLD of itself (each change moves every robot's moment of the interval once).
@@ -142,7 +141,7 @@ class Controller:
                 # Only then: judged again while the robots heard the change, every window of
                 # the queue it answered lengthened it by what its own noise asked, and the
                 # interval ratcheted up in steps of 0.05-0.25 s from one process to the next
-                # (3.75 to 4.35 s in 10 s with 1,000 robots, bench/heartbeat.py, 2026-11-27).
+                # (3.75 to 4.35 s in 10 s with 1,000 robots, bench/heartbeat.py).
                 self.fleet = _fleet(window, current, robots)
                 self._lengthened(window, base=base, current=current)
         elif settled:
@@ -157,7 +156,7 @@ class Controller:
         in any such window of the last SHARE_MEMORY seconds is learned, not this window's
         alone: another process's moment (the reports' rollup every 30 s took half a processor
         for a second) left the pool 0.67 of a processor instead of 1.2, and taken as the
-        machine's it lengthened the interval by 30 % (bench/heartbeat.py, 2026-11-27)."""
+        machine's it lengthened the interval by 30 % (bench/heartbeat.py)."""
         share = window.cpu / window.seconds
         if share > self.cpu_share or self.share_at < window.end - SHARE_MEMORY:
             self.cpu_share, self.share_at = share, window.end
@@ -256,7 +255,7 @@ def _settling(before: float, queued: float) -> float:
     sent within `before` (1.5 times it while it moves to its moment of a longer interval,
     heartbeat_interval_spread) and answered once the queue reaches it. Judged earlier, a queue
     left by the interval before, draining after a fleet's start, lengthened it three times
-    over what it needed (a simulation of 2026-11-27)."""
+    over what it needed (in a simulation)."""
     return queued + 1.5 * before
 
 
@@ -321,7 +320,7 @@ def _shared_heard(*, base: float) -> None:
         return
     # The queue the decision answered: until it has drained the robots have not all heard it.
     # Adopted as if none stood, another process judged its windows 1.5 s later and lengthened
-    # the interval again, 3.10 to 3.70 s in 4 s (bench/heartbeat.py, 2026-11-27).
+    # the interval again, 3.10 to 3.70 s in 4 s (bench/heartbeat.py).
     fresh = backlog_at is not None and backlog_at >= _shared.changed_at - BACKLOG_FRESH
     queued = backlog if fresh else 0.0
     _controller.adopt(interval, cpu_share, at=time.monotonic(), base=base, queued=queued)
@@ -400,11 +399,11 @@ def heartbeat_interval_spread(
     hears a longer interval within one of the site's (all of them within a second at 1 s), so
     told 4.5 s a fleet spread over one second went on heartbeating together in one second of
     every 4.5, as many a second as before it was slowed (bench/heartbeat.py, 1,000 robots under
-    the ceiling of 250, the default then, 2026-11-25: p99 298 ms at 228 heartbeats a second;
-    README). Each robot's slot is a fixed share of the interval, on the wall clock (the same on
+    a ceiling of 250: p99 298 ms at 228 heartbeats a second).
+    Each robot's slot is a fixed share of the interval, on the wall clock (the same on
     every node): the fractional part of its id times the golden ratio's inverse (the same in
     every process), so robots with ids in a row take slots as evenly apart as they can be,
-    whatever their number (Weyl's sequence). Taken from a crc32 of their codes until 2026-11-27,
+    whatever their number (Weyl's sequence). Taken from a crc32 of their codes, the slots of
     1,000 robots coded H0001 to H1000 came 31 to 69 to a twentieth of the interval where 50 were
     due, and the densest twentieths queued at 89 % of what the server takes.
     The robot is told to come at its first slot at least half the interval, and the site's,

@@ -208,7 +208,7 @@ def presence_sweep(*, now: datetime | None = None) -> int:
 
     While heartbeats wait for a web worker, robots are given that long more: a robot's heartbeat
     may be in the server's own queue, and then the server is late, not the robot (a fleet
-    starting at once had hundreds flipped while their heartbeats queued, 2026-11-27)."""
+    starting at once would otherwise have hundreds flipped while their heartbeats queue)."""
     now = now or timezone.now()
     judged_at = now - timedelta(seconds=heartbeat_backlog(now))
     due = Robot.objects.filter(

@@ -1,5 +1,5 @@
-"""Prometheus instruments of the scheduler (README, "Monitoring"): how long choosing a robot
-and its route takes, in the web worker (allocation in the request) or the Celery worker."""
+"""Prometheus instruments of the scheduler (docs/deployment/monitoring.md): how long choosing a
+robot and its route takes, in the web worker (allocation in the request) or the Celery worker."""
 
 from prometheus_client import Histogram
 

@@ -4,7 +4,8 @@
 # Installs what it needs (Python packages into .venv; Redis, Mosquitto, PostgreSQL and Chromium
 # from Debian's packages when missing), starts Redis, Mosquitto and PostgreSQL when stopped, then runs, stopping
 # at the first failure: ruff lint, ruff format check, the import-linter contracts (the layers of
-# pyproject.toml), Django's system checks, the missing-migration check and pytest (which includes
+# pyproject.toml), Django's system checks, the missing-migration check, the documentation site's
+# build (mkdocs.yml; --strict: a broken link or a page left out of the navigation fails) and pytest (which includes
 # the bounded property-based runs of tests/security: Hypothesis bodies at the heartbeat and the
 # task API, schemathesis over the OpenAPI schema). Extra arguments go to pytest, e.g.
 # ./scripts/test.sh -k heartbeat -x
@@ -42,6 +43,8 @@ export DATABASE_CONN_MAX_AGE=0
 export CHROMIUM_PATH="${CHROMIUM_BIN}"
 export PLAYWRIGHT_SKIP_BROWSER_DOWNLOAD=1
 export PYTHONDONTWRITEBYTECODE=1
+# Material for MkDocs prints a notice about MkDocs 2 on every build; the build's own warnings stay.
+export NO_MKDOCS_2_WARNING=1
 
 step() {
     local name="$1"
@@ -62,6 +65,7 @@ step "ruff format" ruff format --check .
 step "import layers" lint-imports --no-cache
 step "django system checks" python manage.py check
 step "missing migrations" python manage.py makemigrations --check --dry-run
+step "documentation" mkdocs build --strict
 # Two workers: the target machines have two cores; each worker gets its own test database.
 step "pytest" pytest -n "${PYTEST_WORKERS:-2}" "$@"
 

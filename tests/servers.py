@@ -1,5 +1,6 @@
-"""Real servers for tests: gunicorn, daphne and a Celery worker, run the way the README runs
-them in production, on the test database (and the test Redis database, from REDIS_URL)."""
+"""Real servers for tests: gunicorn, daphne and a Celery worker, run the way production runs
+them (docs/deployment/production.md), on the test database (and the test Redis database, from
+REDIS_URL)."""
 
 import os
 import socket

@@ -1,5 +1,6 @@
-"""Prometheus instruments of the VDA 5050 bridge (README, "Metrics"): counted in the bridge's
-own process (with PROMETHEUS_MULTIPROC_DIR set, into that directory, added up by /metrics)."""
+"""Prometheus instruments of the VDA 5050 bridge (docs/deployment/monitoring.md): counted in the
+bridge's own process (with PROMETHEUS_MULTIPROC_DIR set, into that directory, added up by
+/metrics)."""
 
 from prometheus_client import Counter
 

@@ -24,7 +24,7 @@ def secret_new() -> str:
 
 class Subscription(models.Model):
     """A URL of another system that hears of a site's task status changes, signed with its
-    secret (HMAC-SHA256; README, "Webhooks")."""
+    secret (HMAC-SHA256; docs/integrators/webhooks.md)."""
 
     site = models.ForeignKey("robots.Site", on_delete=models.CASCADE, related_name="+")
     name = models.CharField(max_length=200, help_text="who listens, e.g. Laboratory system")

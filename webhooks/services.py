@@ -70,7 +70,7 @@ _ACTIVE = Statement(
 
 
 def task_event_payload(entry: TaskTransition) -> dict:
-    """What other systems receive of one status change (README, "Webhooks")."""
+    """What other systems receive of one status change (docs/integrators/webhooks.md)."""
     task = entry.task
     robot = entry.robot or task.robot
     return {

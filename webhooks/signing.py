@@ -1,4 +1,4 @@
-"""How a webhook request is signed, and how a receiver checks it (README, "Webhooks").
+"""How a webhook request is signed, and how a receiver checks it (docs/integrators/webhooks.md).
 
     X-Webhook-Timestamp: 1795420800
     X-Webhook-Signature: sha256=<hex HMAC-SHA256(secret, "<timestamp>." + body)>

@@ -126,9 +126,9 @@ class Robot(models.Model):
         # No index on the deadlines (unreachable_at, offline_at), although the presence sweep
         # filters on them: every heartbeat moves them, and a changed indexed column makes
         # PostgreSQL write a new entry in each of the table's indexes instead of updating the
-        # row in place (a HOT update). Without them a heartbeat's UPDATE writes 204 bytes of
-        # WAL instead of 860 (README "Serving"); the sweep reads the robots table, a few
-        # hundred rows, once a second.
+        # row in place (a HOT update), and a heartbeat's UPDATE writes about a quarter of the
+        # WAL it would with them; the sweep reads the robots table, a few hundred rows, once a
+        # second.
 
     def __str__(self):
         return self.code
@@ -243,9 +243,8 @@ def robot_activity(robot: Robot) -> str:
 class HeartbeatCadence(models.Model):
     """The heartbeat interval the load asks for and the capacity it was learned from, one row
     shared by every web process (robots/cadence.py): the process that changes it writes it
-    here, the others adopt it within COUNT_SECONDS. Judged by each process alone, one kept
-    2.5 s for a minute after an overload while the four others were back at 1.5 s
-    (bench/heartbeat.py, 2026-11-25)."""
+    here, the others adopt it within COUNT_SECONDS. Judged by each process alone, the processes
+    disagree after an overload, and the robots one of them answers heartbeat at its interval."""
 
     interval = models.FloatField(default=0.0)  # seconds; 0: none asked, the sites' own
     # Of a processor, what one node's pool of web workers used while connections waited for

@@ -1,7 +1,7 @@
-"""Browser tests: Debian's Chromium, driven by Playwright, against the serving split of the
-README: gunicorn (pages, API, heartbeats) and daphne (websockets) as subprocesses on the test
-database. Never `playwright install`: CHROMIUM_PATH (default /usr/bin/chromium; ./scripts/test.sh
-installs Debian's package when missing)."""
+"""Browser tests: Debian's Chromium, driven by Playwright, against the serving split of
+docs/architecture/decisions/serving.md: gunicorn (pages, API, heartbeats) and daphne
+(websockets) as subprocesses on the test database. Never `playwright install`: CHROMIUM_PATH
+(default /usr/bin/chromium; ./scripts/test.sh installs Debian's package when missing)."""
 
 from dataclasses import dataclass
 

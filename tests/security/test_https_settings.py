@@ -1,4 +1,4 @@
-"""Deployment over HTTPS, switched on from the environment (README, "Production")."""
+"""Deployment over HTTPS, switched on from the environment (docs/deployment/production.md)."""
 
 import os
 import subprocess
