@@ -9,9 +9,17 @@ runs; an attacker's optimised code on a GPU is faster by the factor of their har
 the "cores within an hour" column lets one read off.
 """
 
+import argparse
 import hashlib
 import os
+import sys
 import time
+from pathlib import Path
+
+if __package__ in (None, ""):  # run as a script: make the repository root importable
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from bench import saving
 
 RUNS = 5
 CASES = [(6, 120_000), (6, 600_000), (8, 600_000), (10, 600_000)]
@@ -27,7 +35,11 @@ def iterations_per_second(iterations: int = 600_000) -> float:
     return iterations / best
 
 
-def main() -> None:
+@saving.saves("pin_guessing")
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    saving.add_argument(parser)
+    parser.parse_args(argv)
     rate = iterations_per_second()
     print(f"one core: {rate:,.0f} PBKDF2-HMAC-SHA256 iterations/s (best of {RUNS})")
     print("digits  iterations  every code (core-hours)  on average  cores to find it in 1 h")
@@ -37,7 +49,8 @@ def main() -> None:
         print(
             f"{digits:>6}  {iterations:>10,}  {hours:>23,.1f}  {average:>10,.1f}  {average:>8,.0f}"
         )
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

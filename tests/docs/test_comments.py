@@ -14,7 +14,7 @@ SKIPPED_DIRECTORIES = {".venv", "node_modules", "var", "tests", "migrations", ".
 DATE = re.compile(r"20[0-9]{2}-[0-9]{2}-[0-9]{2}")
 # Phrases that only make sense on the day they were written.
 DIARY = re.compile(
-    r"\b(this|last|previous|next|new|another) session\b"
+    r"\b(this|last|previous|next) session\b"
     r"|\bsession's (machine|code)\b"
     r"|\b(yesterday|this morning|this afternoon|last night|last week)\b"
     r"|\buntil (recently|now|this change)\b"
