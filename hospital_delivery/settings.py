@@ -68,6 +68,7 @@ INSTALLED_APPS = [
     "building",
     "scheduling",
     "maps",
+    "fhir_r4",
     "ui",
     "reports",
     "webhooks",
