@@ -9,3 +9,10 @@ class DeliveryState(models.TextChoices):
 
 # The only event type so far: a delivery task changed status (its creation included).
 TASK_STATUS_CHANGED = "task.status_changed"
+
+
+class PayloadFormat(models.TextChoices):
+    """What a subscription receives of a status change."""
+
+    NATIVE = "native", "Our event (task.status_changed)"
+    FHIR = "fhir", "The FHIR R4 Task as it is now"
