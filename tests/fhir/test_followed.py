@@ -83,7 +83,8 @@ def test_it_follows_a_secure_order_to_completed_while_a_robot_delivers_it(fhir, 
     body = ordered_task(identifier="RX-5005")
     body["input"] += secure_inputs("Nurse Park")
     created = fhir.resource("Task", **body).save().serialize()
-    pin = next(o["valueString"] for o in created["output"] if o["type"]["coding"][0]["code"])
+    outputs = {o["type"]["coding"][0]["code"]: o for o in created["output"]}
+    pin = outputs["pin"]["valueString"]
     world.pins[created["id"]] = pin
     seen, since = [], {"at": created["meta"]["lastUpdated"]}
 
