@@ -4,6 +4,10 @@ Any user in either group, or a staff user, may use the pages and order deliverie
 cancel their own requests; operators (and staff) may cancel any task, pause, resume and return
 robots and acknowledge alerts. Views enforce this on the server (the templates only hide what
 a user may not do).
+
+A third group, `integration`, is for hospital systems (the pharmacy's, the laboratory's) that
+order over FHIR (fhir/): they order, read and cancel their own orders at their sites, and open
+no page and operate no robot.
 """
 
 from functools import wraps
@@ -13,23 +17,30 @@ from django.core.exceptions import PermissionDenied
 
 NURSE = "nurse"
 OPERATOR = "operator"
-GROUPS = (NURSE, OPERATOR)
+GROUPS = (NURSE, OPERATOR)  # the page groups
+INTEGRATION = "integration"
+ROLES = (*GROUPS, INTEGRATION)
 
 
 def roles_of(user) -> frozenset[str]:
-    """The user's page groups, read once per request (cached on the user object)."""
+    """The user's groups among ROLES, read once per request (cached on the user object)."""
     if not user.is_authenticated:
         return frozenset()
     roles = getattr(user, "_page_roles", None)
     if roles is None:
-        names = user.groups.filter(name__in=GROUPS).values_list("name", flat=True)
+        names = user.groups.filter(name__in=ROLES).values_list("name", flat=True)
         roles = user._page_roles = frozenset(names)
     return roles
 
 
 def is_member(user) -> bool:
     """May use the pages: staff, or in the nurse or operator group."""
-    return user.is_authenticated and (user.is_staff or bool(roles_of(user)))
+    return user.is_authenticated and (user.is_staff or bool(roles_of(user) & set(GROUPS)))
+
+
+def is_integration(user) -> bool:
+    """May order and read deliveries over FHIR: staff, or in the integration group."""
+    return user.is_authenticated and (user.is_staff or INTEGRATION in roles_of(user))
 
 
 def is_operator(user) -> bool:
@@ -37,8 +48,10 @@ def is_operator(user) -> bool:
 
 
 def can_cancel(user, task) -> bool:
-    """Operators cancel any task; other members only the ones they requested."""
-    return is_operator(user) or (is_member(user) and task.requester_id == user.pk)
+    """Operators cancel any task; other members and hospital systems only the ones they
+    requested."""
+    may_order = is_member(user) or is_integration(user)
+    return is_operator(user) or (may_order and task.requester_id == user.pk)
 
 
 def member_required(view):

@@ -69,6 +69,7 @@ INSTALLED_APPS = [
     "building",
     "scheduling",
     "maps",
+    "fhir_r4",
     "ui",
     "reports",
     "webhooks",

@@ -18,6 +18,7 @@ urlpatterns = [
     path("api/v1/", include("robots.urls")),
     path("api/v1/", include("scheduling.urls")),
     path("api/v1/", include("maps.urls")),
+    path("fhir/r4/", include("fhir_r4.urls")),  # orders from hospital systems (FHIR R4)
     path("api/schema/", SpectacularAPIView.as_view(), name="schema"),
     path("api/docs/", login_required(api_docs), name="api-docs"),
     # Pages for nurses and operators (ui/), and their login

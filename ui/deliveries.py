@@ -13,6 +13,7 @@ from django.urls import reverse
 from django.views.decorators.http import require_POST
 
 from core.access import can_cancel, member_required
+from fhir_r4.selectors import order_for_staff
 from robots.membership import site_required
 from robots.models import Site
 from scheduling.deadlines import lateness_note
@@ -89,6 +90,8 @@ def task_history(request, code: str):
         "notice": notice,
         "on_hold": on_hold,
         "can_cancel": user_may_cancel(request.user, task),
+        # Ordered by a hospital system (FHIR): its order and patient, by identifiers only.
+        "order": order_for_staff(task),
     }
     if request.GET.get("partial"):
         return render(request, "scheduling/_task_history.html", context)

@@ -5,8 +5,8 @@ from webhooks.models import Subscription, WebhookDelivery
 
 @admin.register(Subscription)
 class SubscriptionAdmin(admin.ModelAdmin):
-    list_display = ["name", "site", "url", "active", "created_at"]
-    list_filter = ["site", "active"]
+    list_display = ["name", "site", "url", "payload_format", "active", "created_at"]
+    list_filter = ["site", "active", "payload_format"]
 
 
 @admin.register(WebhookDelivery)

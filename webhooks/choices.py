@@ -27,3 +27,10 @@ class AttemptFailure(models.TextChoices):
     BAD_ANSWER = "bad_answer", "The answer was not valid HTTP"
     REDIRECT = "redirect", "Answered with a redirect, which is never followed"
     NOT_2XX = "not_2xx", "Answered with a status other than 2xx"
+
+
+class PayloadFormat(models.TextChoices):
+    """What a subscription receives of a status change."""
+
+    NATIVE = "native", "Our event (task.status_changed)"
+    FHIR = "fhir", "The FHIR R4 Task as it is now"

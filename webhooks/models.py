@@ -14,7 +14,7 @@ from django.db.models import Q
 from django.utils import timezone
 
 from scheduling.choices import TaskStatus
-from webhooks.choices import AttemptFailure, DeliveryState
+from webhooks.choices import AttemptFailure, DeliveryState, PayloadFormat
 from webhooks.targets import TargetRefused, target_check
 
 
@@ -37,6 +37,12 @@ class Subscription(models.Model):
         blank=True,
         help_text='task statuses to send, e.g. ["picked_up", "delivered", "failed"]; '
         "empty: every status change",
+    )
+    payload_format = models.CharField(
+        max_length=8,
+        choices=PayloadFormat,
+        default=PayloadFormat.NATIVE,
+        help_text="our event, or the FHIR Task as it is now (docs/integrators/fhir.md)",
     )
     active = models.BooleanField(default=True)
     created_at = models.DateTimeField(default=timezone.now)

@@ -18,8 +18,10 @@ from django.utils import timezone
 
 from core import changes, memo
 from core.statements import Statement
+from fhir_r4.representation import task_resource
+from fhir_r4.selectors import task_for_webhook
 from scheduling.models import TaskTransition
-from webhooks.choices import TASK_STATUS_CHANGED, AttemptFailure, DeliveryState
+from webhooks.choices import TASK_STATUS_CHANGED, AttemptFailure, DeliveryState, PayloadFormat
 from webhooks.models import Subscription, WebhookDelivery
 from webhooks.signing import EVENT_ID_HEADER, SIGNATURE_HEADER, TIMESTAMP_HEADER, signature
 from webhooks.targets import TargetRefused, target_check, target_post
@@ -45,12 +47,18 @@ def deliveries_for_change(*, kind: str, site_id: int, subject, **_) -> list[int]
     if not wanted:
         return []
     payload = task_event_payload(subject)
+    formats = {subscription.payload_format for subscription in wanted}
+    fhir = fhir_task_payload(subject) if PayloadFormat.FHIR in formats else None
     rows = [
         WebhookDelivery(
             subscription=subscription,
             event_id=payload["id"],
             event=TASK_STATUS_CHANGED,
-            payload={**payload, "site": subscription.site.code},
+            payload=(
+                fhir
+                if subscription.payload_format == PayloadFormat.FHIR
+                else {**payload, "site": subscription.site.code}
+            ),
             next_attempt_at=subject.at,
         )
         for subscription in wanted
@@ -93,6 +101,12 @@ def task_event_payload(entry: TaskTransition) -> dict:
     }
 
 
+def fhir_task_payload(entry: TaskTransition) -> dict:
+    """The FHIR Task of the changed delivery as it is now, its history written so far
+    included (docs/integrators/fhir.md, "Webhooks")."""
+    return task_resource(task_for_webhook(entry.task_id))
+
+
 def delivery_body(delivery: WebhookDelivery) -> bytes:
     """The same bytes on every attempt (the signature covers them)."""
     return json.dumps(delivery.payload, sort_keys=True, separators=(",", ":")).encode()
@@ -125,8 +139,9 @@ def _post(delivery: WebhookDelivery, now: datetime) -> tuple[int | None, str]:
     The URL is checked again first: its host may resolve elsewhere since it was saved."""
     body = delivery_body(delivery)
     timestamp = int(now.timestamp())
+    fhir = delivery.subscription.payload_format == PayloadFormat.FHIR
     headers = {
-        "Content-Type": "application/json",
+        "Content-Type": "application/fhir+json" if fhir else "application/json",
         "User-Agent": "hospital-delivery-webhooks/1",
         EVENT_ID_HEADER: delivery.event_id,
         TIMESTAMP_HEADER: str(timestamp),

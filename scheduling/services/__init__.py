@@ -29,7 +29,7 @@ from scheduling.services.allocation import (
     task_allocate,
     task_allocate_with_its_site,
 )
-from scheduling.services.cancellation import TaskNotCancellable, task_cancel
+from scheduling.services.cancellation import TaskChanged, TaskNotCancellable, task_cancel
 from scheduling.services.events import heartbeat_tasks_apply
 from scheduling.services.faults import heartbeat_fault_check, robot_fault, robot_fault_resolve
 from scheduling.services.operator import (
@@ -45,6 +45,7 @@ from scheduling.services.timeouts import ack_timeout_sweep
 from scheduling.services.unloading import task_move_on, unattended_sweep, unload_timeout_sweep
 
 __all__ = [
+    "TaskChanged",
     "TaskNotCancellable",
     "ack_timeout_sweep",
     "due_sweep",

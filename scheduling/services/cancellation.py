@@ -18,29 +18,41 @@ class TaskNotCancellable(Exception):
     """The task is delivered, finished, or already on its way back."""
 
 
+class TaskChanged(Exception):
+    """The task's history grew past the entries the caller had seen (a FHIR If-Match)."""
+
+
 class _Moved(Exception):
     """The task changed hands while we were locking; start again."""
 
 
-def task_cancel(*, task: Task, by, now: datetime | None = None) -> Task:
+def task_cancel(
+    *, task: Task, by, now: datetime | None = None, history_count: int | None = None
+) -> Task:
     """Cancel a task for user `by`.
 
     Not yet with a robot: cancelled. Assigned, not acknowledged: its plan is withdrawn and a
     corrected plan posted. Acknowledged, nothing on board: a new plan without it. Items on
     board: a return trip to its (first) pick-up point. Raises TaskNotCancellable otherwise.
+
+    With `history_count`, only if the task's history still has that many entries (checked with
+    the task held as for the change itself), else TaskChanged: the caller decided on an older
+    state.
     """
     now = now or timezone.now()
     for _ in range(ATTEMPTS):
         try:
             with transaction.atomic():
-                return _cancel(task.pk, by, now)
+                return _cancel(task.pk, by, now, history_count)
         except _Moved:
             continue
     raise TaskNotCancellable(f"{task.code} keeps changing hands; try again")
 
 
-def _cancel(task_id: int, by, now: datetime) -> Task:
+def _cancel(task_id: int, by, now: datetime, history_count: int | None) -> Task:
     task = _with_robot_locked(task_id)
+    if history_count is not None and task.history.count() != history_count:
+        raise TaskChanged(f"{task.code} has changed")
     if task.status in FINISHED_STATUSES or task.status == TaskStatus.DELIVERED:
         raise TaskNotCancellable(f"{task.code} is {task.get_status_display().lower()}")
     if task.return_trip:
@@ -67,11 +79,13 @@ def _with_robot_locked(task_id: int) -> Task:
 
 
 def _cancel_waiting(task: Task, by, now: datetime) -> Task:
+    # The status as read: a task made due or allocated meanwhile is read again (and its
+    # history counted again).
     claimed = Task.objects.filter(
-        pk=task.pk, status__in=WAITING_STATUSES, robot__isnull=True
+        pk=task.pk, status=task.status, status__in=WAITING_STATUSES, robot__isnull=True
     ).update(status=TaskStatus.CANCELLED, cancelled_at=now)
     if not claimed:
-        raise _Moved  # allocated meanwhile
+        raise _Moved  # allocated or made due meanwhile
     old, task.status, task.cancelled_at = task.status, TaskStatus.CANCELLED, now
     task_record(task, old=old, at=now, cause=Cause.USER, user=by, note="cancelled")
     return task

@@ -16,6 +16,7 @@ class Received:
     signed: str
     body: bytes
     answered: int
+    content_type: str = ""
 
     @property
     def payload(self) -> dict:
@@ -44,6 +45,7 @@ class HookReceiver:
                             signed=self.headers.get(SIGNATURE_HEADER, ""),
                             body=body,
                             answered=answer,
+                            content_type=self.headers.get("Content-Type", ""),
                         )
                     )
                 self.send_response(answer)

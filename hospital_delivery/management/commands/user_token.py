@@ -2,12 +2,14 @@ from django.contrib.auth import get_user_model
 from django.core.management.base import BaseCommand, CommandError
 from django.utils import timezone
 
+from core.access import INTEGRATION
 from hospital_delivery.models import ApiToken
 
 
 class Command(BaseCommand):
     help = (
-        "Issue a new API token for a staff user (revoking the previous one) and print it once; "
+        "Issue a new API token for a staff user or a user of the integration group (revoking "
+        "the previous one) and print it once; "
         "--list shows who holds a token, --revoke takes a user's token away."
     )
 
@@ -34,8 +36,12 @@ class Command(BaseCommand):
             deleted, _ = ApiToken.objects.filter(user=user).delete()
             self.stdout.write(f"revoked {username}'s token" if deleted else f"{username} had none")
             return None
-        if not user.is_staff:
-            raise CommandError(f"{username!r} is not a staff user; the API serves staff only")
+        # The integration group's tokens open the FHIR endpoint only (fhir/, core.access).
+        if not (user.is_staff or user.groups.filter(name=INTEGRATION).exists()):
+            raise CommandError(
+                f"{username!r} is neither a staff user nor in the {INTEGRATION} group; "
+                "the API serves only them"
+            )
         self.stdout.write(ApiToken.issue(user))
         return None
 
