@@ -36,8 +36,10 @@ def on_logged_in(sender, request, user, **kwargs) -> None:
 
 
 def _used_by_a_person(request) -> bool:
+    """A signed-in page's request. Requests of the API signed by a token (DRF sets their user
+    too) come with no session, and must not be given one."""
     user = getattr(request, "user", None)
-    if user is None or not user.is_authenticated:
+    if user is None or not user.is_authenticated or request.session.session_key is None:
         return False
     match = request.resolver_match
     return match is None or match.url_name not in BACKGROUND_URL_NAMES
