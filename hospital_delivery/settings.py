@@ -8,8 +8,16 @@ from datetime import timedelta
 from pathlib import Path
 
 import dj_database_url
+import ldap
 from django.core.exceptions import ImproperlyConfigured
+from django_auth_ldap.config import (
+    GroupOfNamesType,
+    LDAPSearch,
+    NestedGroupOfNamesType,
+    PosixGroupType,
+)
 
+from accounts.groups import GroupsSyntaxError, parse_role_groups, parse_site_groups
 from hospital_delivery.env import env_bool, env_int, env_list, env_str
 
 BASE_DIR = Path(__file__).resolve().parent.parent
@@ -68,6 +76,7 @@ INSTALLED_APPS = [
     "resources",
     "building",
     "scheduling",
+    "accounts",
     "maps",
     "fhir_r4",
     "ui",
@@ -269,6 +278,109 @@ SPECTACULAR_SETTINGS = {
     "REDOC_DIST": "SIDECAR",
     "COMPONENT_SPLIT_REQUEST": True,
 }
+
+# Hospital sign-in (docs/deployment/sign-in.md): the hospital's LDAP directory or Active
+# Directory, and OpenID Connect single sign-on, beside the local accounts (break-glass
+# administrators, the demo); roles and sites from the directory's groups at each sign-in;
+# shared ward workstations. Each part is off until its setting names a server.
+AUTH_LDAP_SERVER_URI = env_str("AUTH_LDAP_SERVER_URI", "").strip()
+AUTH_LDAP_BIND_DN = env_str("AUTH_LDAP_BIND_DN", "")
+AUTH_LDAP_BIND_PASSWORD = env_str("AUTH_LDAP_BIND_PASSWORD", "")
+AUTH_LDAP_START_TLS = env_bool("AUTH_LDAP_START_TLS", False)
+AUTH_LDAP_USER_SEARCH = AUTH_LDAP_GROUP_SEARCH = None
+_ldap_user_base = env_str("AUTH_LDAP_USER_SEARCH_BASE", "").strip()
+_ldap_user_filter = env_str("AUTH_LDAP_USER_SEARCH_FILTER", "(uid=%(user)s)").strip()
+_ldap_group_base = env_str("AUTH_LDAP_GROUP_SEARCH_BASE", "").strip()
+_ldap_group_filter = env_str("AUTH_LDAP_GROUP_SEARCH_FILTER", "(objectClass=*)").strip()
+_ldap_group_types = {
+    "member": GroupOfNamesType,  # groups listing their members' DNs: groupOfNames, AD groups
+    "nested": NestedGroupOfNamesType,  # the same, and groups within groups (AD's nesting)
+    "posix": PosixGroupType,  # posixGroup listing memberUid
+}
+_ldap_group_type = env_str("AUTH_LDAP_GROUP_TYPE", "member")
+_ldap_ca_file = env_str("AUTH_LDAP_CA_FILE", "")
+_ldap_timeout = env_int("AUTH_LDAP_TIMEOUT", 5, minimum=1)
+if _ldap_group_type not in _ldap_group_types:
+    raise ImproperlyConfigured(
+        f"AUTH_LDAP_GROUP_TYPE={_ldap_group_type!r}: use one of {', '.join(_ldap_group_types)}"
+    )
+if AUTH_LDAP_SERVER_URI:
+    for _uri in AUTH_LDAP_SERVER_URI.split():
+        if not _uri.startswith(("ldap://", "ldaps://")):
+            raise ImproperlyConfigured(f"AUTH_LDAP_SERVER_URI: {_uri!r} is not ldap:// or ldaps://")
+        if AUTH_LDAP_START_TLS and _uri.startswith("ldaps://"):
+            raise ImproperlyConfigured(
+                "AUTH_LDAP_START_TLS is for ldap:// (ldaps:// is TLS already)"
+            )
+    if not _ldap_user_base:
+        raise ImproperlyConfigured(
+            "AUTH_LDAP_USER_SEARCH_BASE must be set with AUTH_LDAP_SERVER_URI"
+        )
+    if "%(user)s" not in _ldap_user_filter:
+        raise ImproperlyConfigured("AUTH_LDAP_USER_SEARCH_FILTER must contain %(user)s")
+    if _ldap_ca_file and not Path(_ldap_ca_file).is_file():
+        raise ImproperlyConfigured(f"AUTH_LDAP_CA_FILE={_ldap_ca_file!r} is not a file")
+    AUTH_LDAP_USER_SEARCH = LDAPSearch(_ldap_user_base, ldap.SCOPE_SUBTREE, _ldap_user_filter)
+    if _ldap_group_base:
+        AUTH_LDAP_GROUP_SEARCH = LDAPSearch(
+            _ldap_group_base, ldap.SCOPE_SUBTREE, _ldap_group_filter
+        )
+        AUTH_LDAP_GROUP_TYPE = _ldap_group_types[_ldap_group_type]()
+AUTH_LDAP_USER_ATTR_MAP = {"first_name": "givenName", "last_name": "sn", "email": "mail"}
+AUTH_LDAP_CONNECTION_OPTIONS = {
+    ldap.OPT_REFERRALS: 0,  # Active Directory's referrals lead to other servers: not followed
+    ldap.OPT_NETWORK_TIMEOUT: _ldap_timeout,  # a directory that is down must not hang sign-ins
+    ldap.OPT_TIMEOUT: _ldap_timeout,
+    ldap.OPT_X_TLS_REQUIRE_CERT: ldap.OPT_X_TLS_DEMAND,
+    **({ldap.OPT_X_TLS_CACERTFILE: _ldap_ca_file} if _ldap_ca_file else {}),
+    ldap.OPT_X_TLS_NEWCTX: 0,  # last: applies the TLS options above
+}
+
+OIDC_ISSUER = env_str("OIDC_ISSUER", "").strip()
+OIDC_RP_CLIENT_ID = env_str("OIDC_CLIENT_ID", "")
+OIDC_RP_CLIENT_SECRET = env_str("OIDC_CLIENT_SECRET", "")
+OIDC_GROUPS_CLAIM = env_str("OIDC_GROUPS_CLAIM", "groups")
+OIDC_USERNAME_CLAIM = env_str("OIDC_USERNAME_CLAIM", "preferred_username")
+OIDC_PROVIDER_NAME = env_str("OIDC_PROVIDER_NAME", "single sign-on")
+OIDC_RP_SCOPES = env_str("OIDC_SCOPES", "openid email profile")
+OIDC_RP_SIGN_ALGO = env_str("OIDC_SIGN_ALGORITHM", "RS256")
+OIDC_TIMEOUT = env_int("OIDC_TIMEOUT", 10, minimum=1)
+OIDC_USE_PKCE = True  # RFC 7636, S256: a stolen authorization code is useless alone
+OIDC_STORE_ID_TOKEN = True  # the id_token_hint of the provider's sign-out
+if OIDC_ISSUER:
+    _issuer_host = OIDC_ISSUER.split("://", 1)[-1].split("/", 1)[0].rsplit(":", 1)[0]
+    if not (OIDC_ISSUER.startswith("https://") or _issuer_host in ("127.0.0.1", "localhost")):
+        raise ImproperlyConfigured("OIDC_ISSUER must be an https:// URL")
+    if not (OIDC_RP_CLIENT_ID and OIDC_RP_CLIENT_SECRET):
+        raise ImproperlyConfigured(
+            "OIDC_CLIENT_ID and OIDC_CLIENT_SECRET must be set with OIDC_ISSUER"
+        )
+    if "openid" not in OIDC_RP_SCOPES.split():
+        raise ImproperlyConfigured(f"OIDC_SCOPES={OIDC_RP_SCOPES!r} must include openid")
+    if not OIDC_RP_SIGN_ALGO.startswith(("RS", "ES", "PS")):
+        raise ImproperlyConfigured("OIDC_SIGN_ALGORITHM must be one the provider signs with a key")
+    # Signing out posts a form whose answer sends the browser on to the provider's sign-out.
+    CONTENT_SECURITY_POLICY["DIRECTIVES"]["form-action"].append(
+        "/".join(OIDC_ISSUER.split("/", 3)[:3])
+    )
+
+try:
+    ROLE_GROUPS = parse_role_groups(env_str("ROLE_GROUPS", ""))
+    SITE_GROUPS = parse_site_groups(env_str("SITE_GROUPS", ""))
+except GroupsSyntaxError as exc:
+    raise ImproperlyConfigured(str(exc)) from None
+
+AUTHENTICATION_BACKENDS = [
+    AUTHENTICATION_BACKENDS[0],  # django-axes stays first: it refuses locked-out attempts
+    *(["accounts.backends.DirectoryBackend"] if AUTH_LDAP_SERVER_URI else []),
+    *(["accounts.backends.SingleSignOnBackend"] if OIDC_ISSUER else []),
+    *AUTHENTICATION_BACKENDS[1:],
+    # A person confirming an order at a workstation. Last: Django's test client signs in
+    # (force_login) with the first backend that can find a user, and this one never does.
+    "accounts.backends.BadgePinBackend",
+]
+# What django-axes keeps of a failed attempt's form masks these (a workstation's badge and PIN).
+AXES_SENSITIVE_PARAMETERS = ["username", "ip_address", "badge", "pin"]
 
 # How the scheduler gives out tasks (measured side by side in bench/fleet_day.py):
 # "delivery_time" (default): online multi-task allocation choosing the robot by added travel

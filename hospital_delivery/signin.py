@@ -81,7 +81,11 @@ class SignInThrottleMiddleware:
 
     def _login_paths(self) -> frozenset[str]:
         if self._paths is None:
-            self._paths = frozenset({reverse("login"), reverse("admin:login")})
+            # A shared workstation's orders are confirmed with a badge and PIN or a password
+            # (ui/workstation.py): their failures count here too, and an unknown badge costs a
+            # hash per badge of the site.
+            paths = {reverse("login"), reverse("admin:login"), reverse("workstation")}
+            self._paths = frozenset(paths)
         return self._paths
 
 

@@ -4,6 +4,7 @@ from django.contrib.auth.decorators import login_required
 from django.urls import include, path
 from drf_spectacular.views import SpectacularAPIView, SpectacularSwaggerSplitView
 
+from accounts.views import SignOutView
 from hospital_delivery import healthz
 
 # Swagger UI with its start-up script as a file of its own, not inline (Content-Security-Policy).
@@ -23,7 +24,8 @@ urlpatterns = [
     path("api/docs/", login_required(api_docs), name="api-docs"),
     # Pages for nurses and operators (ui/), and their login
     path("accounts/login/", auth_views.LoginView.as_view(), name="login"),
-    path("accounts/logout/", auth_views.LogoutView.as_view(), name="logout"),
+    path("accounts/logout/", SignOutView.as_view(), name="logout"),
+    path("", include("accounts.urls")),  # /oidc/: single sign-on
     path("", include("ui.urls")),
     path("", include("reports.urls")),  # /reports/ and /metrics
     path("", include("webhooks.urls")),  # /webhooks/

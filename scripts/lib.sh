@@ -155,6 +155,7 @@ ensure_venv() {
     want="$(sha256sum "${req}" | cut -d' ' -f1)"
     [[ -f "${stamp}" ]] && have="$(cat "${stamp}")"
     if [[ "${want}" != "${have}" ]]; then
+        ensure_python_build_deps
         log "installing Python packages from requirements.txt"
         "${VENV_DIR}/bin/python" -m pip install --disable-pip-version-check -q -r "${req}" \
             || die "pip install -r requirements.txt failed"
@@ -165,6 +166,17 @@ ensure_venv() {
         *":${VENV_DIR}/bin:"*) ;;
         *) export PATH="${VENV_DIR}/bin:${PATH}" ;;
     esac
+}
+
+# ensure_python_build_deps: what pip needs to build the packages that ship no wheel for Linux:
+# python-ldap (django-auth-ldap's client, hospital sign-in) compiles against Debian's OpenLDAP
+# and Cyrus SASL headers, with a C compiler and Python's own headers.
+ensure_python_build_deps() {
+    ensure_apt_packages libldap2-dev libsasl2-dev gcc libc6-dev
+    if ! python3 -c 'import os, sys, sysconfig
+sys.exit(not os.path.exists(os.path.join(sysconfig.get_paths()["include"], "Python.h")))'; then
+        ensure_apt_packages python3-dev
+    fi
 }
 
 # ----------------------------------------------------------------------------------------------
@@ -333,6 +345,24 @@ ensure_chromium() {
     fi
     ensure_apt_packages chromium fonts-liberation
     [[ -x "${CHROMIUM_BIN}" ]] || die "${CHROMIUM_BIN} is missing after installing chromium"
+}
+
+# ----------------------------------------------------------------------------------------------
+# OpenLDAP's slapd and its tools: the sign-in tests start a directory of their own (a process on a
+# free port, its configuration and data in a temporary directory: tests/directory.py). Installing
+# the package must not set up or start the system's directory: debconf is told to skip that.
+
+ensure_slapd() {
+    if [[ -x /usr/sbin/slapd ]] && command -v slapadd >/dev/null 2>&1 \
+        && command -v ldapsearch >/dev/null 2>&1; then
+        return 0
+    fi
+    if ! apt_package_installed slapd; then
+        printf 'slapd slapd/no_configuration boolean true\n' | as_root debconf-set-selections \
+            || die "debconf-set-selections failed"
+    fi
+    ensure_apt_packages slapd ldap-utils
+    [[ -x /usr/sbin/slapd ]] || die "/usr/sbin/slapd is missing after installing slapd"
 }
 
 # ----------------------------------------------------------------------------------------------

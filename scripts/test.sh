@@ -31,6 +31,7 @@ ensure_postgres_database "${TEST_PG_ROLE}" "${TEST_PG_PASSWORD}" "${TEST_PG_DB}"
 ensure_chromium
 ensure_nginx
 ensure_valgrind
+ensure_slapd  # the sign-in tests run a directory of their own (tests/directory.py)
 ensure_node_packages
 
 export SECRET_KEY=test-only-secret

@@ -22,6 +22,8 @@ def pages(request) -> dict:
         "open_alerts": _alerts_of(user) if member else (),
         # Called (one Redis read) only by a page that shows it: base.html, for members.
         "sweeps_overdue": sweeps_overdue if member else (),
+        # The login page's "Sign in with ..." button (OpenID Connect, accounts/oidc.py).
+        "sso_provider_name": settings.OIDC_PROVIDER_NAME if settings.OIDC_ISSUER else "",
     }
 
 

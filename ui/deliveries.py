@@ -5,6 +5,8 @@ A request goes through the API's own validation (TaskRequestSerializer) and serv
 (task_request), so a nurse's form and a hospital system's API call behave alike.
 """
 
+from functools import wraps
+
 from django.contrib import messages
 from django.core.exceptions import PermissionDenied
 from django.http import Http404
@@ -12,7 +14,8 @@ from django.shortcuts import get_object_or_404, redirect, render
 from django.urls import reverse
 from django.views.decorators.http import require_POST
 
-from core.access import can_cancel, member_required
+from accounts.workstations import workstation_of
+from core.access import can_cancel, is_member, member_required
 from fhir_r4.selectors import order_for_staff
 from robots.membership import site_required
 from robots.models import Site
@@ -32,6 +35,22 @@ from ui.live.parts import schedule_context, user_may_cancel
 from ui.selectors import page_site
 
 
+def workstations_to_their_page(view):
+    """A shared workstation's account has a page of its own (ui/workstation.py): sent there
+    from the pages a person uses, such as this one, where signing in lands."""
+
+    @wraps(view)
+    def guarded(request, *args, **kwargs):
+        # A workstation has no role of its own (accounts.Workstation.clean): members are not
+        # asked (no query more on their pages).
+        if not is_member(request.user) and workstation_of(request.user) is not None:
+            return redirect("workstation")
+        return view(request, *args, **kwargs)
+
+    return guarded
+
+
+@workstations_to_their_page
 @member_required
 def deliveries(request):
     """GET: the form and the schedule. POST: request a delivery; on success back to the page
@@ -51,16 +70,8 @@ def deliveries(request):
         request_data = TaskRequestSerializer(data=form.api_data())
         if request_data.is_valid() and form_valid:
             task = task_request(requester=request.user, **request_data.validated_data)
-            late = lateness_note(eta=task.eta, due_at=task.due_at)
             messages.success(request, f"Delivery {task.code} requested: {task.contents}.")
-            if task.secure:  # shown this once: only its hash is kept
-                messages.warning(
-                    request,
-                    f"PIN for {task.code}: {task.pin_plain}. Give it to the recipient: it "
-                    "opens the robot's compartment and is not shown again.",
-                )
-            if late:
-                messages.warning(request, f"{task.code} will be late: {late}.")
+            request_warnings(request, task)
             return redirect(_deliveries_url(task.site))
         form.add_api_errors(request_data.errors)
     status = 400 if form.is_bound else 200
@@ -72,6 +83,20 @@ def deliveries(request):
         **schedule_context(request, site),
     }
     return render(request, "scheduling/deliveries.html", context, status=status)
+
+
+def request_warnings(request, task) -> None:
+    """What the requester must know of a delivery just requested: a secure one's PIN (shown
+    this once: only its hash is kept), and that it will be late."""
+    if task.secure:
+        messages.warning(
+            request,
+            f"PIN for {task.code}: {task.pin_plain}. Give it to the recipient: it "
+            "opens the robot's compartment and is not shown again.",
+        )
+    late = lateness_note(eta=task.eta, due_at=task.due_at)
+    if late:
+        messages.warning(request, f"{task.code} will be late: {late}.")
 
 
 @member_required

@@ -281,3 +281,71 @@ class DoorHoldForm(forms.Form):
 
 class CarSendForm(forms.Form):
     floor = forms.CharField(max_length=32)
+
+
+def _secret_input(**attrs) -> forms.PasswordInput:
+    """Typed or scanned, never shown again (the page never carries it back)."""
+    return forms.PasswordInput(render_value=False, attrs={"autocomplete": "off", **attrs})
+
+
+class IdentifyForm(forms.Form):
+    """Who is ordering at a shared workstation: their badge and PIN, or their user name and
+    password. Both fields of one way must be given."""
+
+    use_required_attribute = False
+
+    badge = forms.CharField(
+        label="Badge", required=False, max_length=128, strip=True, widget=_secret_input()
+    )
+    pin = forms.CharField(
+        label="PIN",
+        required=False,
+        max_length=8,
+        strip=True,
+        widget=_secret_input(inputmode="numeric"),
+    )
+    username = forms.CharField(label="User name", required=False, max_length=150, strip=True)
+    password = forms.CharField(
+        label="Password", required=False, strip=False, widget=_secret_input()
+    )
+
+    def clean(self):
+        cleaned = super().clean()
+        badge, pin = cleaned.get("badge"), cleaned.get("pin")
+        username, password = cleaned.get("username"), cleaned.get("password")
+        if badge or pin:
+            if not badge:
+                self.add_error("badge", "Scan your badge as well as typing your PIN.")
+            if not pin:
+                self.add_error("pin", "Type your PIN after scanning your badge.")
+        elif username or password:
+            if not username:
+                self.add_error("username", "Type your user name as well as your password.")
+            if not password:
+                self.add_error("password", "Type your password as well as your user name.")
+        else:
+            self.add_error("badge", "Scan your badge and type your PIN to confirm the order.")
+        return cleaned
+
+
+class PinForm(forms.Form):
+    """A person sets their own workstation PIN (typed twice)."""
+
+    use_required_attribute = False
+
+    pin = forms.CharField(
+        label="New PIN", max_length=8, strip=True, widget=_secret_input(inputmode="numeric")
+    )
+    pin_again = forms.CharField(
+        label="New PIN again", max_length=8, strip=True, widget=_secret_input(inputmode="numeric")
+    )
+
+    def clean(self):
+        cleaned = super().clean()
+        if (
+            cleaned.get("pin")
+            and cleaned.get("pin_again")
+            and cleaned["pin"] != cleaned["pin_again"]
+        ):
+            self.add_error("pin_again", "The two PINs differ: type the same PIN twice.")
+        return cleaned

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 from boards.models import RobotEvent
 from robots.membership import site_chosen
 from robots.models import PresenceChange, Robot, Site
-from scheduling.models import OperatorAction
+from scheduling.models import OperatorAction, Task
 
 RECENT_EVENTS = 20
 RECENT_PRESENCE = 10
@@ -37,3 +37,9 @@ def page_site(request) -> tuple[Site, list[Site]]:
     """The site a page is about (?site=<code>, else the first) and the user's sites, for a
     choice (robots/membership.py)."""
     return site_chosen(request.user, request.POST.get("site") or request.GET.get("site"))
+
+
+def tasks_by_pk(pks: list[int], *, site: Site) -> list[Task]:
+    """The site's tasks of these ids, newest first, with their requesters (one query)."""
+    tasks = Task.objects.filter(pk__in=pks, site=site).select_related("requester")
+    return list(tasks.order_by("-pk"))

@@ -1,12 +1,14 @@
 from django.urls import path
 
-from ui import custody, deliveries, fleet, maps, recurring, stations
+from ui import custody, deliveries, fleet, maps, recurring, stations, workstation
 from ui.live import state
 
 urlpatterns = [
     path("", deliveries.deliveries, name="deliveries"),
     path("deliveries/<str:code>/", deliveries.task_history, name="task-history"),
     path("deliveries/<str:code>/cancel", deliveries.task_cancel_post, name="task-cancel-page"),
+    path("workstation/", workstation.workstation_page, name="workstation"),
+    path("account/pin/", workstation.pin_page, name="account-pin"),
     path("custody.csv", custody.custody_csv, name="custody-csv"),
     path("recurring/", recurring.recurring_list, name="recurring"),
     path("recurring/<int:pk>/stop", recurring.recurring_stop_post, name="recurring-stop"),
