@@ -27,6 +27,8 @@ class Account(models.Model):
     # Django's password hash of the PIN (salted, slow; never the PIN): it never leaves the
     # server, unlike a badge's hash, which robots check offline (robots/badges.py).
     pin_hash = models.CharField(max_length=256, blank=True, editable=False)
+    # The pages' language the person chose (a code of settings.LANGUAGES); empty: their browser's.
+    language = models.CharField(max_length=8, blank=True)
 
     class Meta:
         constraints = [

@@ -14,6 +14,7 @@ from django.contrib.auth.signals import user_logged_in, user_logged_out, user_lo
 from django.db.backends.signals import connection_created
 from django.db.models.signals import m2m_changed, post_delete, post_save
 
+from accounts import languages
 from boards import push
 from boards.hooks import heartbeat_applied
 from building import receivers as building
@@ -49,6 +50,8 @@ def connect() -> None:
     changed.connect(publish.on_change, webhooks.on_change)
     # A new session counts as used just now (its idle time, hospital_delivery/sessions.py).
     user_logged_in.connect(sessions.on_logged_in, dispatch_uid="session-idle-login")
+    # The person's own language, if they chose one, for the new session's pages.
+    user_logged_in.connect(languages.on_logged_in, dispatch_uid="account-language-login")
     # Every failed sign-in counts against its client address (the sign-in throttle).
     user_login_failed.connect(signin.on_login_failed, dispatch_uid="signin-throttle")
     # Logging out closes that session's live pages (Django's own signal).

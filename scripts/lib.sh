@@ -387,3 +387,14 @@ ensure_node_packages() {
         printf '%s\n' "${want}" >"${stamp}"
     fi
 }
+
+# ----------------------------------------------------------------------------------------------
+# The pages' translations: locale/<language>/LC_MESSAGES/django.po are the sources (in git); the
+# compiled .mo files Django reads are built from them here, with GNU gettext's msgfmt.
+
+compile_catalogs() {
+    command -v msgfmt >/dev/null 2>&1 || ensure_apt_packages gettext
+    (cd "${REPO_ROOT}" && python manage.py compilemessages --locale ko --locale it -v 0 \
+        --ignore ".venv" --ignore "node_modules" --ignore "var") \
+        || die "compiling the translations (locale/) failed"
+}

@@ -146,6 +146,8 @@ log "migrating the database"
 python manage.py migrate --noinput
 log "collecting static files"
 python manage.py collectstatic --noinput -v 0
+log "compiling the translations"
+compile_catalogs
 log "writing the proxy's configuration"
 python manage.py proxy_config --listen "127.0.0.1:${PORT_HTTP}" --web "127.0.0.1:${PORT_WEB}" \
     --web-woken "127.0.0.1:${PORT_WEB_WOKEN}" --ws "127.0.0.1:${PORT_WS}" --runtime var/nginx >/dev/null

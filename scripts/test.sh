@@ -5,7 +5,8 @@
 # from Debian's packages when missing), starts Redis, Mosquitto and PostgreSQL when stopped, then runs, stopping
 # at the first failure: ruff lint, ruff format check, the import-linter contracts (the layers of
 # pyproject.toml), Django's system checks, the missing-migration check, the documentation site's
-# build (mkdocs.yml; --strict: a broken link or a page left out of the navigation fails) and pytest (which includes
+# build (mkdocs.yml; --strict: a broken link or a page left out of the navigation fails), the
+# translations' compilation (locale/) and pytest (which includes
 # the bounded property-based runs of tests/security: Hypothesis bodies at the heartbeat and the
 # task API, schemathesis over the OpenAPI schema). Extra arguments go to pytest, e.g.
 # ./scripts/test.sh -k heartbeat -x
@@ -67,6 +68,7 @@ step "import layers" lint-imports --no-cache
 step "django system checks" python manage.py check
 step "missing migrations" python manage.py makemigrations --check --dry-run
 step "documentation" mkdocs build --strict
+step "translations" compile_catalogs
 # Two workers: the target machines have two cores; each worker gets its own test database.
 step "pytest" pytest -n "${PYTEST_WORKERS:-2}" "$@"
 
