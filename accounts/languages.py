@@ -26,7 +26,7 @@ def account_language_set(*, user, language: str) -> None:
 
 
 def on_logged_in(sender, request, user, **kwargs) -> None:
-    """django.contrib.auth's user_logged_in: the person's own language for this session."""
+    """django.contrib.auth's user_logged_in: the person's own language for the new session."""
     language = Account.objects.filter(user=user).values_list("language", flat=True).first()
     if language and language_supported(language):
         request.session[SESSION_KEY] = language
