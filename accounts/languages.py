@@ -3,6 +3,7 @@ their account, so it follows them to any computer), else their browser's Accept-
 Django's LocaleMiddleware reads. The choice rides in the session, so no page pays a query for it."""
 
 from django.conf import settings
+from django.http import HttpRequest
 from django.utils import translation
 
 from accounts.models import Account
@@ -23,6 +24,18 @@ def account_language_set(*, user, language: str) -> None:
     account, _created = Account.objects.get_or_create(user=user)
     account.language = language
     account.save(update_fields=["language"])
+
+
+def language_of_page(*, session, cookies: dict, accept_language: str) -> str:
+    """The language a page was rendered in, from what its live socket carries (the same session,
+    cookies and Accept-Language): the person's choice, else as LocaleMiddleware chose it."""
+    chosen = session.get(SESSION_KEY) if session is not None else None
+    if chosen and language_supported(chosen):
+        return chosen
+    request = HttpRequest()
+    request.COOKIES = cookies
+    request.META["HTTP_ACCEPT_LANGUAGE"] = accept_language
+    return translation.get_language_from_request(request)
 
 
 def on_logged_in(sender, request, user, **kwargs) -> None:

@@ -1,4 +1,5 @@
 from django.db import models
+from django.utils.translation import gettext_lazy as _
 
 
 class WaypointKind(models.TextChoices):
@@ -17,16 +18,16 @@ class ResourceKind(models.TextChoices):
 class RobotStatus(models.TextChoices):
     """What the robot says it is doing (protocol v1, state.status)."""
 
-    UNKNOWN = "unknown", "Not reported yet"
-    IDLE = "idle", "Idle"
-    MOVING = "moving", "Moving"
-    WAITING_LOAD = "waiting_load", "Waiting for loading"
-    WAITING_UNLOAD = "waiting_unload", "Waiting for unloading"
-    WAITING_RESOURCE = "waiting_resource", "Waiting for a resource"
-    IN_RESOURCE = "in_resource", "In a resource"
-    CHARGING = "charging", "Charging"
-    PAUSED = "paused", "Paused"
-    ERROR = "error", "Error"
+    UNKNOWN = "unknown", _("Not reported yet")
+    IDLE = "idle", _("Idle")
+    MOVING = "moving", _("Moving")
+    WAITING_LOAD = "waiting_load", _("Waiting for loading")
+    WAITING_UNLOAD = "waiting_unload", _("Waiting for unloading")
+    WAITING_RESOURCE = "waiting_resource", _("Waiting for a resource")
+    IN_RESOURCE = "in_resource", _("In a resource")
+    CHARGING = "charging", _("Charging")
+    PAUSED = "paused", _("Paused")
+    ERROR = "error", _("Error")
 
 
 REPORTABLE_STATUSES = [value for value in RobotStatus.values if value != RobotStatus.UNKNOWN]
@@ -35,9 +36,9 @@ REPORTABLE_STATUSES = [value for value in RobotStatus.values if value != RobotSt
 class Presence(models.TextChoices):
     """What the server concludes from when heartbeats arrive (protocol v1, "Presence")."""
 
-    ONLINE = "online", "Online"
-    UNREACHABLE = "unreachable", "Unreachable"
-    OFFLINE = "offline", "Offline"
+    ONLINE = "online", _("Online")
+    UNREACHABLE = "unreachable", _("Unreachable")
+    OFFLINE = "offline", _("Offline")
 
 
 class RobotProtocol(models.TextChoices):

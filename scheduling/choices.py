@@ -1,18 +1,19 @@
 from django.db import models
+from django.utils.translation import gettext_lazy as _
 
 
 class TaskStatus(models.TextChoices):
     """Where a delivery task is in its lifecycle (see scheduling/services/__init__.py)."""
 
-    SCHEDULED = "scheduled", "Scheduled"
-    DUE = "due", "Due, waiting for a robot"
-    ASSIGNED = "assigned", "Assigned (plan posted)"
-    ACKNOWLEDGED = "acknowledged", "Acknowledged by the robot"
-    PICKED_UP = "picked_up", "Picked up"
-    DELIVERED = "delivered", "Delivered"
-    COMPLETED = "completed", "Completed"
-    CANCELLED = "cancelled", "Cancelled"
-    FAILED = "failed", "Failed"
+    SCHEDULED = "scheduled", _("Scheduled")
+    DUE = "due", _("Due, waiting for a robot")
+    ASSIGNED = "assigned", _("Assigned (plan posted)")
+    ACKNOWLEDGED = "acknowledged", _("Acknowledged by the robot")
+    PICKED_UP = "picked_up", _("Picked up")
+    DELIVERED = "delivered", _("Delivered")
+    COMPLETED = "completed", _("Completed")
+    CANCELLED = "cancelled", _("Cancelled")
+    FAILED = "failed", _("Failed")
 
 
 # Held by a robot: the task has a robot and (until delivered) stops on its route.

@@ -163,3 +163,56 @@ def test_it_closes_a_sessions_sockets_when_that_session_logs_out(site, nurse):
 
     assert closed == {"type": "websocket.close", "code": 4401}
     assert event["kind"] == "task"
+
+
+def test_each_page_hears_an_event_in_its_own_language(site, robot):
+    korean, english = (
+        factories.user_create("kim", "nurse"),
+        factories.user_create("park", "operator"),
+    )
+    accept_korean = (b"accept-language", b"ko-KR,ko;q=0.9")
+    korean_cookie, english_cookie = session_cookie(korean), session_cookie(english)
+
+    async def scenario():
+        nurse = socket(site.code, ORIGIN, korean_cookie, accept_korean)
+        operator = socket(site.code, ORIGIN, english_cookie)
+        assert (await nurse.connect(timeout=5))[0]
+        assert (await operator.connect(timeout=5))[0]
+        await database_sync_to_async(Beater(robot).beat)(status="charging")
+        heard = [await each.receive_json_from(timeout=5) for each in (nurse, operator)]
+        for each in (nurse, operator):
+            await each.disconnect()
+        return heard
+
+    in_korean, in_english = run(scenario)
+
+    assert (in_korean["data"]["status_label"], in_english["data"]["status_label"]) == (
+        "충전 중",
+        "Charging",
+    )
+    assert in_korean["data"]["presence_label"] == "연결됨"
+    assert set(in_korean) == {"kind", "data"}
+    assert {key: value for key, value in in_korean["data"].items() if "label" not in key} == {
+        key: value for key, value in in_english["data"].items() if "label" not in key
+    }
+
+
+def test_a_persons_chosen_language_beats_their_browsers_on_the_live_socket(site, robot):
+    nurse = factories.user_create("kim", "nurse")
+    client = Client()
+    client.force_login(nurse)
+    client.post("/language/", {"language": "it", "next": "/"})
+    cookie = (
+        b"cookie",
+        f"{settings.SESSION_COOKIE_NAME}={client.cookies['sessionid'].value}".encode(),
+    )
+
+    async def scenario():
+        page = socket(site.code, ORIGIN, cookie, (b"accept-language", b"ko-KR,ko"))
+        assert (await page.connect(timeout=5))[0]
+        await database_sync_to_async(Beater(robot).beat)(status="charging")
+        event = await page.receive_json_from(timeout=5)
+        await page.disconnect()
+        return event
+
+    assert run(scenario)["data"]["status_label"] == "In carica"

@@ -1,6 +1,7 @@
 """The pages' websocket: every live event of one site (ui/live/publish.py), forwarded as
-{"kind": ..., "data": ...}. It authenticates, joins groups and forwards; it queries only to
-authenticate, to find the site, and to check again that its user still may watch it.
+{"kind": ..., "data": ...} in the page's language. It authenticates, joins groups and forwards;
+it queries only to authenticate, to find the site and the page's language, and to check again
+that its user still may watch it.
 """
 
 import asyncio
@@ -12,6 +13,7 @@ from django.conf import settings
 from django.contrib.auth import HASH_SESSION_KEY, SESSION_KEY, get_user_model
 from django.utils.crypto import constant_time_compare
 
+from accounts.languages import language_of_page
 from core.access import is_member
 from robots.membership import may_see_site
 from robots.models import Site
@@ -47,6 +49,7 @@ class SiteConsumer(AsyncJsonWebsocketConsumer):
             await self.close(code=refusal)
             return
         self.site_id, self.user_id = site_id, user.pk
+        self.language = await database_sync_to_async(_page_language)(self.scope)
         self.session_key = self.scope["session"].session_key
         self.groups = [site_group(site_id), user_group(user.pk)]
         if self.session_key:
@@ -73,7 +76,10 @@ class SiteConsumer(AsyncJsonWebsocketConsumer):
         """Pages only listen: everything they do goes through HTTP."""
 
     async def site_event(self, event):
-        await self.send_json({"kind": event["kind"], "data": event["data"]})
+        """The event's data, with the labels of this page's language laid over it."""
+        data = event["data"]
+        mine = event.get("translated", {}).get(self.language)
+        await self.send_json({"kind": event["kind"], "data": {**data, **mine} if mine else data})
 
     async def _recheck_every(self):
         while True:
@@ -86,6 +92,15 @@ class SiteConsumer(AsyncJsonWebsocketConsumer):
         )
         if refusal:
             await self.close(code=refusal)
+
+
+def _page_language(scope) -> str:
+    headers = dict(scope.get("headers", []))
+    return language_of_page(
+        session=scope.get("session"),
+        cookies=scope.get("cookies", {}),
+        accept_language=headers.get(b"accept-language", b"").decode("latin-1"),
+    )
 
 
 def _site_access(user, code: str) -> tuple[int | None, int | None]:

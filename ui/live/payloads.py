@@ -23,9 +23,9 @@ def robot_payload(robot) -> dict:
     return {
         "code": robot.code,
         "presence": str(robot.presence),
-        "presence_label": Presence(robot.presence).label,
+        "presence_label": str(Presence(robot.presence).label),
         "status": str(robot.status),
-        "status_label": RobotStatus(robot.status).label,
+        "status_label": str(RobotStatus(robot.status).label),
         "floor": floor,
         "floor_name": site_map(robot.site).floor_names.get(floor, "") if floor else "",
         "waypoint": waypoint.code if waypoint else None,
@@ -50,7 +50,7 @@ def task_payload(entry) -> dict:
     return {
         "code": entry.task.code,
         "status": entry.new,
-        "status_label": TaskStatus(entry.new).label,
+        "status_label": str(TaskStatus(entry.new).label),
         "old": entry.old,
         "cause": entry.cause,
         "robot": entry.robot.code if entry.robot else None,

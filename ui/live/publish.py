@@ -11,7 +11,9 @@ added to or removed from a site), and close if it is gone.
 import hashlib
 import logging
 
+from django.conf import settings
 from django.db import transaction
+from django.utils import translation
 
 from core import changes
 from core.outbox import send_soon
@@ -47,12 +49,33 @@ def user_group(user_id: int) -> str:
 def on_change(*, kind: str, site_id: int, subject, **detail) -> None:
     """The receiver of core.changes.changed: the payload now (the subject as it is at this
     point of the transaction), sent after commit."""
-    publish_on_commit(site_id=site_id, kind=kind, data=PAYLOADS[kind](subject, **detail))
+    data, translated = payload_in_each_language(lambda: PAYLOADS[kind](subject, **detail))
+    publish_on_commit(site_id=site_id, kind=kind, data=data, translated=translated)
 
 
-def publish_on_commit(*, site_id: int, kind: str, data: dict) -> None:
+def payload_in_each_language(build) -> tuple[dict, dict]:
+    """The payload in the default language, and for each other language the fields that read
+    differently in it (its labels), so one message serves every viewer: each page's socket
+    lays its own language's fields over the data (ui/live/consumers.py)."""
+    with translation.override(settings.LANGUAGE_CODE):
+        data = build()
+    translated = {}
+    for language, _name in settings.LANGUAGES:
+        if language == settings.LANGUAGE_CODE:
+            continue
+        with translation.override(language):
+            other = build()
+        changed = {key: value for key, value in other.items() if value != data.get(key)}
+        if changed:
+            translated[language] = changed
+    return data, translated
+
+
+def publish_on_commit(*, site_id: int, kind: str, data: dict, translated=None) -> None:
     """Tell the pages watching site_id that `kind` happened (e.g. "robot", "task", "lease")."""
     message = {"type": "site.event", "kind": kind, "data": data}
+    if translated:
+        message["translated"] = translated
     group = site_group(site_id)
     transaction.on_commit(lambda: send_soon(lambda: group_send(group, message), what=kind))
 
