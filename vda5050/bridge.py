@@ -208,7 +208,11 @@ class Bridge:
 
     def _beat(self, identity: tuple[str, str], link: Link, state: dict) -> None:
         self.beats[identity] = self.clock()
-        messages = self._apply(link, link.heartbeat(state))
+        try:
+            messages = self._apply(link, link.heartbeat(state))
+        except Exception:
+            link.last_state = None  # not beaten with again: only a state the board took is
+            raise
         for outgoing in link.messages(messages):
             self.publish(identity, outgoing)
 
