@@ -202,7 +202,10 @@ class Bridge:
         if last is not None and message["headerId"] <= last:
             raise MessageInvalid("stale", f"headerId {message['headerId']} after {last}")
         self.last_header[identity] = message["headerId"]
-        self.states[identity] = self.clock()
+        now, previous = self.clock(), self.states.get(identity)
+        if previous is not None and link.connected:
+            link.state_gap(now - previous)
+        self.states[identity] = now
         link.connection = "ONLINE"  # a state says it is there, whatever a last will said
         self._beat(identity, link, message)
 

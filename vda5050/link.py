@@ -42,6 +42,8 @@ RUNNING = {"INITIALIZING", "RUNNING"}
 REFUSALS = {"orderError", "orderUpdateError", "validationError", "noRouteError"}
 # 2.0: a vehicle publishes its state on every event "or at the latest every 30 s".
 STATE_INTERVAL = 30.0
+# A gap longer than this between two states is a vehicle in trouble, not its interval.
+OBSERVED_AT_MOST = 120.0
 GONE = {"CONNECTIONBROKEN", "OFFLINE"}
 
 
@@ -90,6 +92,7 @@ class Link:
     held_requests: int = 0
     refused: set[str] = field(default_factory=set)  # orderIds the vehicle refused
     connection: str = ""  # its last `connection` message's connectionState
+    observed_interval: float = 0.0  # the longest gap between two of its states
 
     def resume(self, plan: dict) -> None:
         """Start from the robot's current plan (the bridge started while it was out): the
@@ -133,8 +136,13 @@ class Link:
 
     @property
     def state_interval(self) -> float:
-        """How long this vehicle may be silent while nothing happens (declared, else 2.0's)."""
-        return self.options.state_interval or STATE_INTERVAL
+        """How long this vehicle may be silent while nothing happens: declared, else the
+        longest it has been (within reason), and never less than 2.0's."""
+        return self.options.state_interval or max(STATE_INTERVAL, self.observed_interval)
+
+    def state_gap(self, seconds: float) -> None:
+        """Two of its states came `seconds` apart, connected all along."""
+        self.observed_interval = max(self.observed_interval, min(seconds, OBSERVED_AT_MOST))
 
     @property
     def connected(self) -> bool:

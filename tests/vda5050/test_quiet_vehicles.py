@@ -37,6 +37,10 @@ def quiet(site):
     robot = vda_robot_create(site, "V1", "SN-1")
     robot.vda5050 = {"state_interval": 30}
     robot.save(update_fields=["vda5050"])
+    return connected(robot)
+
+
+def connected(robot):
     bridge = Recording()
     link = bridge._link(IDENTITY)
     bridge._connection(link, IDENTITY, {"connectionState": "ONLINE"})
@@ -89,3 +93,15 @@ def test_it_stops_beating_when_the_connection_is_broken(quiet):
     before = seq(robot)
     bridge.tick_at(1000.0 + 2.0)
     assert seq(robot) == before
+
+
+def test_it_follows_the_interval_it_observes_when_none_is_declared(site):
+    robot = vda_robot_create(site, "V1", "SN-1")
+    bridge, robot = connected(robot)
+    bridge.now = 1045.0
+    bridge._state(bridge.links[IDENTITY], IDENTITY, state(headerId=1))  # 45 s after the first
+    before = seq(robot)
+    bridge.tick_at(1045.0 + 85.0)  # past twice 2.0's 30 s, within twice the 45 s it takes
+    assert seq(robot) == before + 1
+    bridge.tick_at(1045.0 + 91.0)
+    assert seq(robot) == before + 1
