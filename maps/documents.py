@@ -108,6 +108,8 @@ def _robot(robot: Robot) -> dict:
             manufacturer=robot.manufacturer,
             serial_number=robot.serial_number,
         )
+        if robot.vda5050:
+            entry["vda5050"] = robot.vda5050
     return entry
 
 

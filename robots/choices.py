@@ -47,3 +47,14 @@ class RobotProtocol(models.TextChoices):
 
     HEARTBEAT = "heartbeat", "Heartbeat (protocol v1)"
     VDA5050 = "vda5050", "VDA 5050 over MQTT"
+
+
+class VdaQuirk(models.TextChoices):
+    """Deviations from VDA 5050 2.0 found in vehicles in the field, switched on per vehicle in
+    the site file (its `vda5050.quirks`); the integrators' VDA 5050 page names who needs each."""
+
+    INSTANT_ACTIONS_FIELD = "instant_actions_field", "instantActions holds its list (1.1 name)"
+    INIT_POSITION_AFTER_LIFT = (
+        "init_position_after_lift",
+        "initPosition at the lift's exit node (it keeps its map otherwise)",
+    )

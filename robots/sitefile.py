@@ -17,7 +17,7 @@ from django.db import models, transaction
 from django.db.models import ProtectedError, RestrictedError
 from django.utils import timezone
 
-from robots.choices import ResourceKind, RobotProtocol, WaypointKind
+from robots.choices import ResourceKind, RobotProtocol, VdaQuirk, WaypointKind
 from robots.models import Edge, Floor, Resource, ResourceWaypoint, Robot, Site, Waypoint
 from robots.models.fleet import ROBOT_CODE
 from robots.models.map import UNATTENDED_TO_PICKUP
@@ -261,7 +261,19 @@ ROBOT_FIELDS = {
     "protocol": _Field(str, choices=tuple(RobotProtocol.values)),
     "manufacturer": _Field(str, max_length=64, pattern=CODE_PATTERN),
     "serial_number": _Field(str, max_length=64, pattern=CODE_PATTERN),
+    "vda5050": _Field(dict),
 }
+# A VDA 5050 vehicle's own needs: the actionParameters of its `pick` and `drop` (for every
+# station, and per station code), how often it publishes its state when nothing happens
+# (seconds), and the deviations from the standard it needs (VdaQuirk).
+VDA5050_FIELDS = {
+    "pick": _Field(dict),
+    "drop": _Field(dict),
+    "stations": _Field(dict),
+    "state_interval": _Field(NUMBER, above=0, maximum=3600),
+    "quirks": _Field(list),
+}
+VDA5050_ACTIONS = ("pick", "drop")
 # A compartment holds one item; a lockable one opens only for the recipient (secure deliveries).
 COMPARTMENT_FIELDS = {
     "code": _code(16),
@@ -636,6 +648,8 @@ class _Validation:
             if "compartments" in robot:
                 self._compartments(robot, path)
             self._vda5050_identity(robot, path, seen_identities)
+            if "vda5050" in robot:
+                self._vda5050_options(robot, f"{path}.vda5050")
 
     def _vda5050_identity(self, robot: dict, path: str, seen: dict) -> None:
         """A VDA 5050 vehicle names its manufacturer and serial number (its MQTT topics do);
@@ -649,6 +663,31 @@ class _Validation:
         identity = (robot.get("manufacturer"), robot.get("serial_number"))
         if vda and all(identity) and seen.setdefault(identity, path) != path:
             self._problem(f"{path}.serial_number", f"duplicate vehicle {identity[0]}/{identity[1]}")
+
+    def _vda5050_options(self, robot: dict, path: str) -> None:
+        if robot.get("protocol") != RobotProtocol.VDA5050:
+            self._problem(path, "only for a robot of protocol vda5050")
+            return
+        options = self._item(robot["vda5050"], path, VDA5050_FIELDS) or {}
+        for kind in VDA5050_ACTIONS:
+            if kind in options:
+                self._action_parameters(options[kind], f"{path}.{kind}")
+        for code, actions in options.get("stations", {}).items():
+            where = f"{path}.stations.{code}"
+            if getattr(self.waypoints.get(code), "kind", "") != STATION:
+                self._problem(where, f"'{code}' is not a station's code")
+            station = self._item(actions, where, {kind: _Field(dict) for kind in VDA5050_ACTIONS})
+            for kind, parameters in (station or {}).items():
+                self._action_parameters(parameters, f"{where}.{kind}")
+        for n, quirk in enumerate(options.get("quirks", [])):
+            if quirk not in VdaQuirk.values:
+                self._problem(f"{path}.quirks[{n}]", f"one of {', '.join(VdaQuirk.values)}")
+
+    def _action_parameters(self, parameters: dict, path: str) -> None:
+        """actionParameters as key: value, each value a string, a number or a boolean."""
+        for key, value in parameters.items():
+            if not isinstance(value, str | int | float | bool) or len(str(value)) > 200:
+                self._problem(_at(path, key), "must be a string, a number or a boolean")
 
     def _compartments(self, robot: dict, path: str) -> None:
         """Each compartment holds one item, so they set the robot's capacity."""
@@ -943,6 +982,7 @@ def _robots_write(site: Site, robots: list[dict], plan: SiteMap) -> None:
             "protocol": robot.get("protocol", RobotProtocol.HEARTBEAT),
             "manufacturer": robot.get("manufacturer", ""),
             "serial_number": robot.get("serial_number", ""),
+            "vda5050": robot.get("vda5050", {}),
         }
         if robot.get("compartments"):
             wanted[robot["code"]]["capacity"] = len(robot["compartments"])

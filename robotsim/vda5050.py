@@ -74,6 +74,8 @@ class VdaVehicle:
         # What the vehicle is doing (under self.lock).
         self.order_id, self.update_id = "", 0
         self.last_node, self.last_seq = dock, 0
+        home = site_map.waypoints[dock]
+        self.position = (home.x, home.y, home.floor)  # x, y, mapId: nodes off the map have one
         self.nodes: list[dict] = []  # not yet reached, in order
         self.edges: list[dict] = []
         self.actions: dict[str, dict] = {}  # actionId -> its state
@@ -282,7 +284,7 @@ class VdaVehicle:
         if node["sequenceId"] == self.last_seq and node["nodeId"] == self.last_node:
             self._arrive(node)  # an order's first node: where the vehicle already is
         elif node["released"]:
-            seconds = self.router.travel_time(self.last_node, node["nodeId"])
+            seconds = self._travel_time(node)
             self.motion = _Motion(node, now + seconds)
             self.battery = max(0.0, self.battery - 0.05)
             self._changed = True
@@ -291,11 +293,20 @@ class VdaVehicle:
         self.nodes.remove(node)
         self.edges = [e for e in self.edges if e["sequenceId"] > node["sequenceId"]]
         self.last_node, self.last_seq = node["nodeId"], node["sequenceId"]
+        if position := node.get("nodePosition"):
+            self.position = (position["x"], position["y"], position["mapId"])
         for action in node["actions"]:
             if self.actions.get(action["actionId"], {}).get("actionStatus") == "WAITING":
                 self._start_action(action["actionId"])
                 break  # HARD blocking: one at a time; the next starts when this one is done
         self._changed = True
+
+    def _travel_time(self, node: dict) -> float:
+        """Along the map; into or out of a lift's car (a node off the map), a second: the car
+        itself has moved before the order lets the vehicle out."""
+        if self.last_node in self.map.waypoints and node["nodeId"] in self.map.waypoints:
+            return self.router.travel_time(self.last_node, node["nodeId"])
+        return 1.0
 
     def _finish(self, action_id: str) -> None:
         state = self.actions.get(action_id, {})
@@ -336,7 +347,7 @@ class VdaVehicle:
     # --- State ------------------------------------------------------------------------------
 
     def state(self) -> dict:
-        waypoint = self.map.waypoints[self.last_node]
+        x, y, map_id = self.position
         return {
             **self._header("state"),
             "orderId": self.order_id,
@@ -355,10 +366,10 @@ class VdaVehicle:
                 for e in self.edges
             ],
             "agvPosition": {
-                "x": waypoint.x,
-                "y": waypoint.y,
+                "x": x,
+                "y": y,
                 "theta": 0.0,
-                "mapId": waypoint.floor,
+                "mapId": map_id,
                 "positionInitialized": True,
             },
             "loads": list(self.loads),

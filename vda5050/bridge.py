@@ -2,8 +2,15 @@
 
 Topics as the standard names them, `<interface>/<majorVersion>/<manufacturer>/<serialNumber>/
 <topic>` (`uagv/v2/Acme/SN-7/state`). The bridge subscribes to every vehicle's `connection` and
-`state`, and publishes `order` and `instantActions`. Everything is handled on paho's network
-thread, one message after another, so one vehicle's heartbeats are applied in order.
+`state`, and publishes `order` and `instantActions`. Messages are handled on paho's network
+thread, one after another, so one vehicle's heartbeats are applied in order.
+
+A 2.0 vehicle may publish its state only every 30 s when nothing happens, and the board
+answers only heartbeats. So a second thread (`tick`) beats for each connected vehicle every
+BEAT seconds with its last state: the board's messages (a grant, an operator's Pause) reach
+the vehicle within a beat, and a vehicle whose `connection` says it is there stays `online`
+as long as its own state interval allows (twice it, and a stateRequest once it is overdue).
+Both threads take one lock, so the links see one message or one beat at a time.
 
 A message that is not JSON, fails its schema, names another vehicle than its topic, comes from
 a vehicle no robot row declares, or stands for a heartbeat the board refuses, is logged and
@@ -12,6 +19,8 @@ counted (vda5050.metrics) and changes nothing; nothing a message does can stop t
 
 import json
 import logging
+import threading
+import time
 import uuid
 from datetime import UTC, datetime
 
@@ -20,6 +29,7 @@ from django.db import close_old_connections, connections
 
 from vda5050 import metrics
 from vda5050.link import Link, Outgoing
+from vda5050.orders import VehicleOptions
 from vda5050.services import (
     HeartbeatRefused,
     vehicle_connection_lost,
@@ -33,6 +43,8 @@ logger = logging.getLogger("vda5050")
 MAJOR_VERSION = "v2"
 VERSION = "2.0.0"
 QOS = 1
+BEAT = 1.0  # seconds between the heartbeats the bridge makes for a quiet vehicle
+TICK = 0.2  # how often the beating thread looks
 
 
 def topic_of(interface: str, manufacturer: str, serial_number: str, topic: str) -> str:
@@ -55,6 +67,13 @@ class Bridge:
         self.client.on_connect = self._on_connect
         self.client.on_message = self._on_message
         self.client.on_disconnect = self._on_disconnect
+        self.lock = threading.RLock()
+        self.stopped = threading.Event()
+        self.beats: dict[tuple[str, str], float] = {}  # identity -> when last applied
+        self.states: dict[tuple[str, str], float] = {}  # identity -> its last state's arrival
+        self.asked: dict[tuple[str, str], float] = {}  # identity -> last stateRequest sent
+        self.clock = time.monotonic  # seconds; the tests drive their own
+        self.ticker = threading.Thread(target=self._tick_forever, name="vda5050-beat", daemon=True)
 
     # --- Running ----------------------------------------------------------------------------
 
@@ -62,15 +81,44 @@ class Bridge:
         """Connect and handle messages on a thread of paho's (tests); stop() ends it."""
         self.client.connect(self.host, self.port, keepalive=10)
         self.client.loop_start()
+        self.ticker.start()
 
     def run_forever(self) -> None:
         """Connect and handle messages until disconnected (the management command)."""
         self.client.connect(self.host, self.port, keepalive=10)
+        self.ticker.start()
         self.client.loop_forever(retry_first_connection=True)
 
     def stop(self) -> None:
+        self.stopped.set()
+        if self.ticker.is_alive():
+            self.ticker.join(timeout=10)
         self.client.disconnect()
         self.client.loop_stop()
+
+    def _tick_forever(self) -> None:
+        while not self.stopped.wait(TICK):
+            try:
+                close_old_connections()
+                self.tick()
+            except Exception:
+                logger.exception("error beating for the vehicles")
+        connections.close_all()  # this thread's own
+
+    def tick(self) -> None:
+        """Beat for each quiet vehicle that is there; ask one overdue for its state."""
+        with self.lock:
+            now = self.clock()
+            for identity, link in list(self.links.items()):
+                if link.last_state is None or not link.connected:
+                    continue
+                silent = now - self.states.get(identity, now)
+                if silent > 2 * link.state_interval:
+                    continue  # not heard of for too long: its presence runs out
+                if silent > link.state_interval and now - self.asked.get(identity, 0) > BEAT:
+                    self.publish(identity, link.instant_actions("stateRequest"))
+                if now - self.beats.get(identity, 0) >= BEAT:
+                    self._beat(identity, link, link.last_state)
 
     def _on_connect(self, client, userdata, flags, reason_code, properties=None) -> None:
         if reason_code.is_failure:
@@ -97,7 +145,8 @@ class Bridge:
         kind = parts[-1] if len(parts) == 5 else "unknown"
         try:
             close_old_connections()  # a connection the database dropped is replaced
-            self._handle(parts, kind, payload)
+            with self.lock:
+                self._handle(parts, kind, payload)
         except MessageInvalid as invalid:
             logger.warning("dropped a %s message on %s: %s", kind, topic, invalid)
             metrics.message_rejected(topic=kind, reason=invalid.reason)
@@ -131,6 +180,8 @@ class Bridge:
                 dock=vehicle.dock,
                 site_map=vehicle.site_map,
                 router=vehicle.router,
+                options=VehicleOptions.from_site(vehicle.options),
+                lifts_by_car=vehicle.lifts_by_car,
             )
             if vehicle.plan is not None:
                 link.resume(vehicle.plan)
@@ -139,6 +190,7 @@ class Bridge:
     def _connection(self, link: Link, identity: tuple[str, str], message: dict) -> None:
         state = message["connectionState"]
         logger.info("%s: connection %s", link.robot_code, state)
+        link.connection = state
         if state == "ONLINE":
             self.last_header.pop(identity, None)  # a restarted vehicle counts from 0 again
             return
@@ -150,7 +202,20 @@ class Bridge:
         if last is not None and message["headerId"] <= last:
             raise MessageInvalid("stale", f"headerId {message['headerId']} after {last}")
         self.last_header[identity] = message["headerId"]
-        messages = self._apply(link, link.heartbeat(message))
+        now, previous = self.clock(), self.states.get(identity)
+        if previous is not None and link.connected:
+            link.state_gap(now - previous)
+        self.states[identity] = now
+        link.connection = "ONLINE"  # a state says it is there, whatever a last will said
+        self._beat(identity, link, message)
+
+    def _beat(self, identity: tuple[str, str], link: Link, state: dict) -> None:
+        self.beats[identity] = self.clock()
+        try:
+            messages = self._apply(link, link.heartbeat(state))
+        except Exception:
+            link.last_state = None  # not beaten with again: only a state the board took is
+            raise
         for outgoing in link.messages(messages):
             self.publish(identity, outgoing)
 
@@ -181,4 +246,6 @@ class Bridge:
             **outgoing.body,
         }
         topic = topic_of(self.interface, manufacturer, serial_number, outgoing.topic)
+        if outgoing.topic == "instantActions":
+            self.asked[identity] = self.clock()
         self.client.publish(topic, json.dumps(body), qos=QOS)

@@ -23,11 +23,28 @@ import uuid
 from dataclasses import dataclass, field
 
 from robots.router import Router, SiteMap
-from vda5050.orders import EVENT_OF_ACTION, Order, action_parse, order_build, order_wire
+from vda5050.orders import (
+    ALLOWED_DEVIATION_XY,
+    EVENT_OF_ACTION,
+    INSTANT_ACTIONS_FIELD,
+    Order,
+    VehicleOptions,
+    action_parse,
+    order_build,
+    order_wire,
+)
 
 logger = logging.getLogger("vda5050")
 
 RUNNING = {"INITIALIZING", "RUNNING"}
+# The errors by which a 2.0 vehicle refuses an order or an order update (its errorReferences
+# name the orderId): what it was sent will not be driven.
+REFUSALS = {"orderError", "orderUpdateError", "validationError", "noRouteError"}
+# 2.0: a vehicle publishes its state on every event "or at the latest every 30 s".
+STATE_INTERVAL = 30.0
+# A gap longer than this between two states is a vehicle in trouble, not its interval.
+OBSERVED_AT_MOST = 120.0
+GONE = {"CONNECTIONBROKEN", "OFFLINE"}
 
 
 @dataclass
@@ -54,6 +71,8 @@ class Link:
     dock: str
     site_map: SiteMap
     router: Router
+    options: VehicleOptions = field(default_factory=VehicleOptions)
+    lifts_by_car: bool = False  # the building reports the cars (building.services)
     boot_id: str = field(default_factory=lambda: f"vda-{uuid.uuid4().hex[:16]}")
     seq: int = 0
     events: list[dict] = field(default_factory=list)  # not yet applied
@@ -71,6 +90,9 @@ class Link:
     versions: dict[str, int] = field(default_factory=dict)  # orderId -> plan version
     last_state: dict | None = None
     held_requests: int = 0
+    refused: set[str] = field(default_factory=set)  # orderIds the vehicle refused
+    connection: str = ""  # its last `connection` message's connectionState
+    observed_interval: float = 0.0  # the longest gap between two of its states
 
     def resume(self, plan: dict) -> None:
         """Start from the robot's current plan (the bridge started while it was out): the
@@ -82,6 +104,7 @@ class Link:
     def heartbeat(self, state: dict) -> dict:
         """The heartbeat this state message stands for (a body for HeartbeatSerializer)."""
         self.last_state = state
+        self._refusals_seen(state)
         self._actions_seen(state)
         current = self._current(state)
         if current is not None:
@@ -110,6 +133,45 @@ class Link:
                     logger.error("%s: dropping refused %s", self.robot_code, items.pop(index))
                     dropped = True
         return dropped
+
+    @property
+    def state_interval(self) -> float:
+        """How long this vehicle may be silent while nothing happens: declared, else the
+        longest it has been (within reason), and never less than 2.0's."""
+        return self.options.state_interval or max(STATE_INTERVAL, self.observed_interval)
+
+    def state_gap(self, seconds: float) -> None:
+        """Two of its states came `seconds` apart, connected all along."""
+        self.observed_interval = max(self.observed_interval, min(seconds, OBSERVED_AT_MOST))
+
+    @property
+    def connected(self) -> bool:
+        return self.connection not in GONE
+
+    def _refusals_seen(self, state: dict) -> None:
+        """The vehicle refused our order: its tasks go back (task_failed, with its words)."""
+        order = self.order
+        if order is None or order.order_id in self.refused:
+            return
+        for error in state["errors"]:
+            refs = {
+                r["referenceKey"]: r["referenceValue"] for r in error.get("errorReferences", [])
+            }
+            refusal = error["errorType"] in REFUSALS or error["errorLevel"] == "FATAL"
+            if refusal and refs.get("orderId") == order.order_id:
+                self._order_refused(order, error)
+                return
+
+    def _order_refused(self, order: Order, error: dict) -> None:
+        self.refused.add(order.order_id)
+        words = f"{error['errorType']}: {error.get('errorDescription', '')}".strip(": ")
+        reason = f"{self.robot_code} refused order {order.order_id}: {words}"[:200]
+        logger.error("%s", reason)
+        for task, stop, _ in order.stop_actions.values():
+            if (task, stop) not in self.done:
+                self._event(
+                    f"vda-{task}-refused-{order.order_id}", "task_failed", task=task, reason=reason
+                )
 
     def _current(self, state: dict) -> Order | None:
         order = self.order
@@ -161,6 +223,8 @@ class Link:
                     request["to_floor"] = crossing.to_floor
                 self.requests.append(request)
             gone = last > crossing.wait_seq or (last == crossing.wait_seq and driving)
+            if crossing.car_seq is not None:  # in a lift only once in the car
+                gone = last >= crossing.car_seq
             if crossing.granted and not crossing.entered and gone:
                 crossing.entered = True
                 ident = f"r-{order.order_id}-{crossing.index}"
@@ -207,7 +271,8 @@ class Link:
         if any(c.inside for c in crossings):
             return "in_resource"
         last = state["lastNodeSequenceId"]
-        if any(c.request_id and not c.granted and last == c.wait_seq for c in crossings):
+        held = [c for c in crossings if not c.granted or (c.car_seq and not c.car_here)]
+        if any(c.request_id and last == c.wait_seq for c in held):
             return "waiting_resource"
         if state["driving"] or state["nodeStates"]:
             return "moving"
@@ -228,6 +293,8 @@ class Link:
                 self._plan(message)
             elif kind == "resource_grant":
                 order_changed |= self._grant(message)
+            elif kind == "elevator_at_floor":
+                order_changed |= self._car(message)
             elif kind == "action":
                 out += self._action(message)
             self.acks.append(message["id"])
@@ -256,6 +323,22 @@ class Link:
         self._request("release", message["resource"])
         return False
 
+    def _car(self, message: dict) -> bool:
+        """The car of a lift we hold stopped, doors open: at the vehicle's floor it may get
+        in; at the destination with the vehicle in it, out."""
+        for crossing in self.order.crossings if self.order else []:
+            if crossing.resource != message["resource"] or crossing.car_seq is None:
+                continue
+            if not crossing.granted or crossing.released:
+                continue
+            if not crossing.entered and message["floor"] == crossing.from_floor:
+                crossing.car_here = True
+                return True
+            if crossing.entered and message["floor"] == crossing.to_floor:
+                crossing.car_there = True
+                return True
+        return False
+
     def _action(self, message: dict) -> list[Outgoing]:
         action = message["action"]
         if action == "return_to_dock":
@@ -268,9 +351,23 @@ class Link:
         return [self._instant(kind)] if kind else []
 
     def _instant(self, kind: str) -> Outgoing:
-        ident = f"{kind}-{uuid.uuid4().hex[:12]}"
-        action = {"actionType": kind, "actionId": ident, "blockingType": "HARD"}
-        return Outgoing("instantActions", {"actions": [action]})
+        """One instant action and a stateRequest after it: its outcome is wanted at once."""
+        return self.instant_actions(kind, "stateRequest")
+
+    def instant_actions(self, *kinds: str) -> Outgoing:
+        actions = [
+            {
+                "actionType": kind,
+                "actionId": f"{kind}-{uuid.uuid4().hex[:12]}",
+                "blockingType": "NONE",
+            }
+            for kind in kinds
+        ]
+        for action in actions:
+            if action["actionType"] in ("startPause", "stopPause", "cancelOrder"):
+                action["blockingType"] = "HARD"
+        name = "instantActions" if INSTANT_ACTIONS_FIELD in self.options.quirks else "actions"
+        return Outgoing("instantActions", {name: actions})
 
     def _request(self, type: str, resource: str) -> None:
         self.held_requests += 1
@@ -301,6 +398,7 @@ class Link:
         if start not in self.site_map.waypoints:
             logger.error("%s: last node %r is not on the map", self.robot_code, start)
             return []
+        here = self._away_from(start, state)
         self.orders_made += 1
         order_id = f"{self.robot_code}-{self.boot_id[4:12]}-{self.orders_made}"
         self.order_key = wanted.key
@@ -312,12 +410,30 @@ class Link:
             plan_version=wanted.plan_version,
             start=start,
             stops=stops,
+            options=self.options,
+            here=here,
+            lifts_by_car=self.lifts_by_car,
         )
         self.versions[order_id] = wanted.plan_version
         for waypoint in self.order.unreachable:
             logger.error("%s: no route to %s", self.robot_code, waypoint)
         logger.info("%s: order %s (plan %s)", self.robot_code, order_id, wanted.plan_version)
-        return [Outgoing("order", order_wire(self.order, self.site_map))]
+        return [
+            Outgoing("order", order_wire(self.order, self.site_map)),
+            self.instant_actions("stateRequest"),
+        ]
+
+    def _away_from(self, start: str, state: dict) -> tuple[float, float, str] | None:
+        """Where the vehicle stands if that is not its last node (a cancelOrder stopped it
+        between two): a new order must start there (2.0 §6.6.3.1)."""
+        position = state.get("agvPosition")
+        if not position:
+            return None
+        node = self.site_map.waypoints[start]
+        off = ((position["x"] - node.x) ** 2 + (position["y"] - node.y) ** 2) ** 0.5
+        if off <= ALLOWED_DEVIATION_XY:
+            return None
+        return (position["x"], position["y"], position["mapId"])
 
     def _release_unused(self) -> None:
         """Leases asked for on the old route and not entered are given back."""
@@ -331,7 +447,8 @@ class Link:
         if order.released_until == previous:
             return []
         order.update_id += 1
-        return [Outgoing("order", order_wire(order, self.site_map, from_seq=previous))]
+        update = order_wire(order, self.site_map, from_seq=previous)
+        return [Outgoing("order", update), self.instant_actions("stateRequest")]
 
 
 def _loading(state: dict) -> bool:

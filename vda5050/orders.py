@@ -10,6 +10,11 @@ corridor is a Crossing: the node where the vehicle waits for it ends the release
 order (the base); everything beyond stays in the horizon (`released: false`) until the lease
 is granted, when an order update (orderUpdateId + 1) releases up to the next crossing not yet
 granted. That is how VDA 5050 lets master control hold a vehicle before a shared zone.
+
+A lift the building drives is ridden by the car, not by the lease: between the two lobbies the
+order has a node in the car (`<lift>-CAR`, on the lobby's floor and place). The edge into the
+car is released only once the building reports the car at the vehicle's floor with its doors
+open (`elevator_at_floor`), the ride out of it only once the car reports the destination.
 """
 
 from dataclasses import dataclass, field
@@ -19,6 +24,45 @@ from robots.router import Router, SiteMap, edge_index
 PICK, DROP = "pick", "drop"
 ACTION_OF_STOP = {"pickup": PICK, "dropoff": DROP}
 EVENT_OF_ACTION = {PICK: "loaded", DROP: "unloaded"}
+# 2.0 lists stationType and loadType for pick and drop and leaves their values to the vehicle:
+# a station is a hand-over point at floor level, and what is handed over is a tote. A site
+# whose vehicle expects other values says so (the robot's `vda5050.pick` / `.drop`).
+DEFAULT_PARAMETERS = {
+    PICK: {"stationType": "floor", "loadType": "tote"},
+    DROP: {"stationType": "floor", "loadType": "tote"},
+}
+# How far from a node's position the vehicle may be and still count as on it (2.0 §6.6.3.1:
+# the first node of a new order is where the vehicle stands, within this range).
+ALLOWED_DEVIATION_XY = 0.5
+INSTANT_ACTIONS_FIELD = "instant_actions_field"
+INIT_POSITION_AFTER_LIFT = "init_position_after_lift"
+
+
+@dataclass(frozen=True)
+class VehicleOptions:
+    """The site file's `vda5050` mapping of one robot (robots.sitefile.VDA5050_FIELDS)."""
+
+    pick: dict = field(default_factory=dict)
+    drop: dict = field(default_factory=dict)
+    stations: dict = field(default_factory=dict)
+    state_interval: float | None = None
+    quirks: frozenset[str] = frozenset()
+
+    @classmethod
+    def from_site(cls, data: dict) -> "VehicleOptions":
+        known = {k: v for k, v in data.items() if k in ("pick", "drop", "stations")}
+        return cls(
+            **known,
+            state_interval=data.get("state_interval"),
+            quirks=frozenset(data.get("quirks", ())),
+        )
+
+    def parameters(self, kind: str, waypoint: str) -> list[dict]:
+        """The actionParameters of a pick or drop at `waypoint`: the station's, else the
+        vehicle's, else the defaults, key by key."""
+        station = self.stations.get(waypoint, {}).get(kind, {})
+        values = {**DEFAULT_PARAMETERS[kind], **getattr(self, kind), **station}
+        return [{"key": key, "value": value} for key, value in values.items()]
 
 
 @dataclass
@@ -34,6 +78,10 @@ class Crossing:
     granted: bool = False
     entered: bool = False
     released: bool = False
+    car_seq: int | None = None  # a lift ridden by the car: the node in the car
+    from_floor: str | None = None  # the floor of the waiting node (lifts)
+    car_here: bool = False  # the car reported at from_floor, doors open
+    car_there: bool = False  # the car reported at to_floor with the vehicle in it
 
     @property
     def inside(self) -> bool:
@@ -43,8 +91,10 @@ class Crossing:
 @dataclass(frozen=True)
 class OrderNode:
     seq: int
-    waypoint: str
+    waypoint: str  # a waypoint code, or a place of the vehicle's own (`position` given)
     actions: tuple[dict, ...] = ()
+    position: tuple[float, float, str] | None = None  # x, y, mapId of a node off the map
+    car: str = ""  # the lift whose car this node is in
 
 
 @dataclass(frozen=True)
@@ -73,6 +123,10 @@ class Order:
         for crossing in self.crossings:
             if not crossing.granted:
                 return crossing.wait_seq
+            if crossing.car_seq is not None and not crossing.car_here:
+                return crossing.wait_seq
+            if crossing.car_seq is not None and not crossing.car_there:
+                return crossing.car_seq
         return self.nodes[-1].seq
 
     def tasks_done(self, done: set[tuple[str, int]]) -> list[str]:
@@ -103,31 +157,52 @@ def order_build(
     plan_version: int,
     start: str,
     stops: list[dict],
+    options: VehicleOptions | None = None,
+    here: tuple[float, float, str] | None = None,
+    lifts_by_car: bool = False,
 ) -> Order:
-    """The order driving from `start` through `stops` (a plan's stops, those done left out)."""
+    """The order driving from `start` through `stops` (a plan's stops, those done left out).
+    `here`: where the vehicle stands when that is not `start` (stopped between two nodes): the
+    order's first node is then that place, and it drives back to `start` first.
+    `lifts_by_car`: the building drives the lifts and reports their cars (a node in the car)."""
+    options = options or VehicleOptions()
     nodes = [OrderNode(0, start)]
+    if here is not None:
+        nodes = [OrderNode(0, f"{order_id}/here", position=here), OrderNode(2, start)]
     stop_actions: dict[str, tuple[str, int, str]] = {}
     unreachable = []
+    index = edge_index(site_map)
     for stop in stops:
         path = router.leg(nodes[-1].waypoint, stop["waypoint"]).path
         if not path:
             unreachable.append(stop["waypoint"])
             continue
         for waypoint in path[1:]:
+            car = _car_node(site_map, index, nodes[-1], waypoint) if lifts_by_car else None
+            if car is not None:
+                nodes.append(car)
             nodes.append(OrderNode(nodes[-1].seq + 2, waypoint))
         kind = ACTION_OF_STOP.get(stop["action"])
         if kind is not None:
             ident = action_id(order_id, kind, stop["task"], stop["stop"])
             stop_actions[ident] = (stop["task"], stop["stop"], kind)
             last = nodes[-1]
-            nodes[-1] = OrderNode(last.seq, last.waypoint, (*last.actions, _action(ident, kind)))
+            action = _action(ident, kind, options.parameters(kind, last.waypoint))
+            nodes[-1] = OrderNode(last.seq, last.waypoint, (*last.actions, action))
     edges = _edges(site_map, nodes)
+    crossings = _crossings(site_map, edges)
+    for crossing in crossings:
+        if nodes[crossing.wait_seq // 2 + 1].car:
+            crossing.car_seq = crossing.wait_seq + 2
+            crossing.from_floor = site_map.waypoints[nodes[crossing.wait_seq // 2].waypoint].floor
+    if INIT_POSITION_AFTER_LIFT in options.quirks:
+        _init_positions(site_map, order_id, nodes, crossings)
     order = Order(
         order_id=order_id,
         plan_version=plan_version,
         nodes=nodes,
         edges=edges,
-        crossings=_crossings(site_map, edges),
+        crossings=crossings,
         stop_actions=stop_actions,
         unreachable=unreachable,
     )
@@ -135,9 +210,52 @@ def order_build(
     return order
 
 
-def _action(ident: str, kind: str) -> dict:
+def _car_node(site_map: SiteMap, index: dict, last: OrderNode, waypoint: str) -> OrderNode | None:
+    """The node in the car between two lobbies of a lift, else None."""
+    if last.position is not None or (last.waypoint, waypoint) in index:
+        return None
+    lift = elevator_between(site_map, last.waypoint, waypoint)
+    lobby = site_map.waypoints[last.waypoint]
+    return OrderNode(
+        last.seq + 2, f"{lift}-CAR", position=(lobby.x, lobby.y, lobby.floor), car=lift
+    )
+
+
+def _action(ident: str, kind: str, parameters: list[dict]) -> dict:
     # HARD: the vehicle neither drives nor starts another action until the staff are done.
-    return {"actionType": kind, "actionId": ident, "blockingType": "HARD", "actionParameters": []}
+    return {
+        "actionType": kind,
+        "actionId": ident,
+        "blockingType": "HARD",
+        "actionParameters": parameters,
+    }
+
+
+def _init_positions(
+    site_map: SiteMap, order_id: str, nodes: list[OrderNode], crossings: list[Crossing]
+) -> None:
+    """For a vehicle that keeps its map after a lift ride: tell it where it came out."""
+    for crossing in crossings:
+        if crossing.to_floor is None:
+            continue
+        index = crossing.exit_seq // 2
+        node = nodes[index]
+        waypoint = site_map.waypoints[node.waypoint]
+        values = {
+            "x": waypoint.x,
+            "y": waypoint.y,
+            "theta": 0.0,
+            "mapId": waypoint.floor,
+            "lastNodeId": node.waypoint,
+            "lastNodeSequenceId": node.seq,
+        }
+        action = {
+            "actionType": "initPosition",
+            "actionId": f"{order_id}/initPosition/{node.seq}",
+            "blockingType": "HARD",
+            "actionParameters": [{"key": k, "value": v} for k, v in values.items()],
+        }
+        nodes[index] = OrderNode(node.seq, node.waypoint, (action, *node.actions))
 
 
 def _edges(site_map: SiteMap, nodes: list[OrderNode]) -> list[OrderEdge]:
@@ -145,7 +263,11 @@ def _edges(site_map: SiteMap, nodes: list[OrderNode]) -> list[OrderEdge]:
     edges = []
     for a, b in zip(nodes, nodes[1:], strict=False):
         edge = index.get((a.waypoint, b.waypoint))
-        if edge is not None:
+        if a.car or b.car:  # into the lift's car, or out of it
+            edges.append(OrderEdge(a.seq + 1, a.waypoint, b.waypoint, 0.0, a.car or b.car))
+        elif a.position is not None:  # from where the vehicle stopped back to its last node
+            edges.append(OrderEdge(a.seq + 1, a.waypoint, b.waypoint, 0.0, None))
+        elif edge is not None:
             edges.append(OrderEdge(a.seq + 1, a.waypoint, b.waypoint, edge.length, edge.guarded_by))
         else:  # no floor edge: an elevator ride between two of its lobbies
             elevator = elevator_between(site_map, a.waypoint, b.waypoint)
@@ -206,12 +328,17 @@ def order_wire(order: Order, site_map: SiteMap, *, from_seq: int = 0) -> dict:
 
 
 def _node_wire(node: OrderNode, site_map: SiteMap, released: int) -> dict:
-    waypoint = site_map.waypoints[node.waypoint]
+    if node.position is not None:
+        x, y, map_id = node.position
+    else:
+        waypoint = site_map.waypoints[node.waypoint]
+        x, y, map_id = waypoint.x, waypoint.y, waypoint.floor
+    position = {"x": x, "y": y, "mapId": map_id, "allowedDeviationXy": ALLOWED_DEVIATION_XY}
     return {
         "nodeId": node.waypoint,
         "sequenceId": node.seq,
         "released": node.seq <= released,
-        "nodePosition": {"x": waypoint.x, "y": waypoint.y, "mapId": waypoint.floor},
+        "nodePosition": position,
         "actions": list(node.actions),
     }
 

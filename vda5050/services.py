@@ -5,6 +5,7 @@ lost connection a presence flip (robots.services.robot_connection_lost)."""
 
 from dataclasses import dataclass
 
+from django.conf import settings
 from django.db import transaction
 from rest_framework.exceptions import ValidationError
 
@@ -28,6 +29,8 @@ class Vehicle:
     site_map: SiteMap
     router: Router
     plan: dict | None  # the robot's current plan, stops done left out (after a restart)
+    options: dict  # the site file's `vda5050` mapping of the robot
+    lifts_by_car: bool  # the building drives the lifts and reports where their cars are
 
 
 class HeartbeatRefused(Exception):
@@ -56,6 +59,8 @@ def vehicle_find(*, manufacturer: str, serial_number: str) -> Vehicle | None:
         site_map=site_map(robot.site),
         router=router_for(robot.site),
         plan=vehicle_plan_now(robot_id=robot.pk),
+        options=robot.vda5050 or {},
+        lifts_by_car=settings.BUILDING_ADAPTER != "none",
     )
 
 

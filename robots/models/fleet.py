@@ -37,6 +37,9 @@ class Robot(models.Model):
     )
     manufacturer = models.CharField(max_length=64, blank=True, help_text="VDA 5050 only")
     serial_number = models.CharField(max_length=64, blank=True, help_text="VDA 5050 only")
+    # The site file's `vda5050` mapping (sitefile.VDA5050_FIELDS): pick/drop parameters, per
+    # station too, the vehicle's state interval and its quirks; the bridge reads it.
+    vda5050 = models.JSONField(default=dict, blank=True, help_text="VDA 5050 only")
     token_hash = models.CharField(max_length=64, blank=True, editable=False)
     token_issued_at = models.DateTimeField(null=True, blank=True, editable=False)
 

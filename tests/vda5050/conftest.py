@@ -10,8 +10,11 @@ import uuid
 
 import paho.mqtt.client as mqtt
 import pytest
+from django.db import connections
 from django.test import override_settings
+from django.utils import timezone
 
+from building.services import sim_sweep
 from robots.mapcache import site_map
 from robots.models import Robot, Waypoint
 from robotsim.vda5050 import VdaVehicle
@@ -37,11 +40,37 @@ def interface(mosquitto):
     return f"hdtest{uuid.uuid4().hex[:10]}"
 
 
+class SimBuilding:
+    """The building's simulated lifts and doors, stepped as Celery beat's building sweep does
+    (building.services.sim_sweep), on a thread of its own: the bridge lets a vehicle into a
+    lift only once the car reports its floor."""
+
+    def __init__(self):
+        self.stopped = threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+
+    def _run(self):
+        try:
+            while not self.stopped.wait(0.1):
+                sim_sweep(now=timezone.now())
+        finally:
+            connections.close_all()
+
+    def __enter__(self):
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self.stopped.set()
+        self.thread.join(timeout=10)
+
+
 @pytest.fixture
 def bridge(transactional_db, interface):
     bridge = Bridge(host=BROKER[0], port=BROKER[1], interface=interface)
     bridge.start()
-    yield bridge
+    with SimBuilding():
+        yield bridge
     bridge.stop()
 
 

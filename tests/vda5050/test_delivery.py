@@ -8,7 +8,14 @@ from resources.models import Lease
 from robots.models import Robot
 from scheduling.models import Task, TaskTransition
 from tests import servers
-from tests.vda5050.conftest import BROKER, Spy, deliver, vda_robot_create, vehicle_start
+from tests.vda5050.conftest import (
+    BROKER,
+    SimBuilding,
+    Spy,
+    deliver,
+    vda_robot_create,
+    vehicle_start,
+)
 from vda5050.bridge import Bridge
 
 pytestmark = [pytest.mark.slow, pytest.mark.django_db(transaction=True)]
@@ -53,6 +60,7 @@ def test_it_carries_on_when_the_bridge_restarts_mid_delivery(site, transactional
     robot = vda_robot_create(site, "V1", "SN-1")
     first = Bridge(host=BROKER[0], port=BROKER[1], interface=interface)
     first.start()
+    building = SimBuilding().__enter__()
     # Slower than the other tests: the bridge restarts while the vehicle is on the pharmacy's
     # floor, on its way to the elevator (20 simulated seconds: 2 s here).
     vehicle = vehicle_start(robot, interface, speedup=10)
@@ -79,6 +87,7 @@ def test_it_carries_on_when_the_bridge_restarts_mid_delivery(site, transactional
         vehicle.stop()
         if second is not None:
             second.stop()
+        building.__exit__()
     assert any(
         action["actionType"] == "cancelOrder" for order in vehicle.instant for action in order
     )

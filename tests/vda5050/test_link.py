@@ -55,10 +55,20 @@ def state(**changes) -> dict:
 
 
 def exchange(link, vda_state):
-    """One state through the link and the board, as the bridge does it; what it publishes."""
+    """One state through the link and the board, as the bridge does it; what it publishes,
+    but for the stateRequest following each order (test_it_asks_for_the_state_at_once)."""
+    return [out for out in exchange_all(link, vda_state) if not state_request(out)]
+
+
+def exchange_all(link, vda_state):
     messages = vehicle_heartbeat(robot_id=link.robot_id, heartbeat=link.heartbeat(vda_state))
     link.applied()
     return link.messages(messages)
+
+
+def state_request(out) -> bool:
+    actions = out.body.get("actions", [])
+    return out.topic == "instantActions" and [a["actionType"] for a in actions] == ["stateRequest"]
 
 
 def test_it_holds_the_horizon_before_the_elevator_until_the_grant(link, site):
@@ -116,7 +126,7 @@ def test_it_pauses_and_resumes_by_instant_actions(link, vehicle, staff):
         robot_action(robot=vehicle, action="pause", by=staff)
     [pause] = exchange(link, state())
     assert pause.topic == "instantActions"
-    assert [a["actionType"] for a in pause.body["actions"]] == ["startPause"]
+    assert [a["actionType"] for a in pause.body["actions"]] == ["startPause", "stateRequest"]
     exchange(link, state(paused=True))
     vehicle.refresh_from_db()
     assert vehicle.status == "paused"
@@ -124,7 +134,7 @@ def test_it_pauses_and_resumes_by_instant_actions(link, vehicle, staff):
     with transaction.atomic():
         robot_action(robot=vehicle, action="resume", by=staff)
     [resume] = exchange(link, state(paused=True))
-    assert [a["actionType"] for a in resume.body["actions"]] == ["stopPause"]
+    assert [a["actionType"] for a in resume.body["actions"]] == ["stopPause", "stateRequest"]
 
 
 def test_it_sends_the_vehicle_home_on_return_to_dock(link, vehicle, site, staff):
@@ -144,7 +154,7 @@ def test_it_sends_the_vehicle_home_on_return_to_dock(link, vehicle, site, staff)
 
     # The operator's command: the vehicle's order is cancelled first...
     [cancel] = exchange(link, driving)
-    assert [a["actionType"] for a in cancel.body["actions"]] == ["cancelOrder"]
+    assert [a["actionType"] for a in cancel.body["actions"]] == ["cancelOrder", "stateRequest"]
     assert exchange(link, driving) == []  # (once)
     # ...and once it reports no nodes left, it is ordered to its dock from where it stopped.
     stopped = {**driving, "lastNodeId": "1F-PHARM", "lastNodeSequenceId": 4, "driving": False}
@@ -189,7 +199,7 @@ def test_it_does_not_report_the_picks_its_own_cancel_order_failed(link, vehicle,
     with transaction.atomic():
         robot_action(robot=vehicle, action="return_to_dock", by=staff)
     [cancel] = exchange(link, pharmacy_state(order, "WAITING", nodeStates=[on_the_way]))
-    assert [a["actionType"] for a in cancel.body["actions"]] == ["cancelOrder"]
+    assert [a["actionType"] for a in cancel.body["actions"]] == ["cancelOrder", "stateRequest"]
 
     # The standard's vehicle fails the actions a cancelled order had not started.
     exchange(link, pharmacy_state(order, "FAILED"))
@@ -209,7 +219,7 @@ def test_it_changes_the_route_only_after_the_staff_are_done(link, site):
 
     assert exchange(link, loading) == []  # a cancelOrder now would interrupt the staff
     [cancel] = exchange(link, pharmacy_state(order, "FINISHED", nodeStates=ahead))
-    assert [a["actionType"] for a in cancel.body["actions"]] == ["cancelOrder"]
+    assert [a["actionType"] for a in cancel.body["actions"]] == ["cancelOrder", "stateRequest"]
     [new] = exchange(link, pharmacy_state(order, "FINISHED"))
     assert new.topic == "order"
     assert new.body["nodes"][0]["nodeId"] == "1F-PHARM"

@@ -29,9 +29,49 @@ def test_it_loads_vda5050_robots_from_the_site_file():
     assert rows == {"R1": ("heartbeat", "", ""), "V1": ("vda5050", "Acme", "SN-7")}
 
 
+LIB_VEHICLE = {
+    "pick": {"stationType": "floor", "loadType": "EPAL"},
+    "stations": {"2F-LAB": {"drop": {"stationType": "floor-lab", "height": 0.8}}},
+    "state_interval": 30,
+    "quirks": ["instant_actions_field"],
+}
+
+
+def vda(**fields) -> dict:
+    return {
+        "code": "V1",
+        "dock": "1F-DOCK-1",
+        "protocol": "vda5050",
+        "manufacturer": "Acme",
+        "serial_number": "SN-7",
+        **fields,
+    }
+
+
+def test_it_loads_a_vehicles_own_needs_from_the_site_file():
+    site_load(data=site_with(vda(vda5050=LIB_VEHICLE)))
+    assert Robot.objects.get(code="V1").vda5050 == LIB_VEHICLE
+
+
 @pytest.mark.parametrize(
     ("robots", "problem"),
     [
+        (
+            [{"code": "R1", "dock": "1F-DOCK-1", "vda5050": {"state_interval": 30}}],
+            "robots[0].vda5050: only for a robot of protocol vda5050",
+        ),
+        ([vda(vda5050={"quirks": ["flies"]})], "robots[0].vda5050.quirks[0]: one of"),
+        ([vda(vda5050={"state_interval": 0})], "robots[0].vda5050.state_interval"),
+        ([vda(vda5050={"pick": {"loadType": ["EPAL"]}})], "robots[0].vda5050.pick.loadType"),
+        ([vda(vda5050={"grab": {}})], "robots[0].vda5050.grab"),
+        (
+            [vda(vda5050={"stations": {"1F-HALL": {"pick": {}}}})],
+            "robots[0].vda5050.stations.1F-HALL: '1F-HALL' is not a station's code",
+        ),
+        (
+            [vda(vda5050={"stations": {"2F-LAB": {"lift": {}}}})],
+            "robots[0].vda5050.stations.2F-LAB.lift",
+        ),
         (
             [{"code": "V1", "dock": "1F-DOCK-1", "protocol": "vda5050", "manufacturer": "Acme"}],
             "robots[0].serial_number: required for a vda5050 robot",
