@@ -7,6 +7,7 @@ so concurrent or duplicated heartbeats of one robot are applied one after the ot
 from dataclasses import dataclass, field
 from datetime import datetime
 
+from django.conf import settings
 from django.db import transaction
 from django.db.models import QuerySet
 from django.utils import timezone
@@ -15,13 +16,11 @@ from boards.hooks import heartbeat_applied
 from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.push import wake_now, wake_on_commit
 from core import memo
+from core.overload import heartbeat_interval, heartbeat_interval_spread
 from core.statements import Statement, row_insert, row_update, rows_insert, values_stored
-from robots.cadence import (
-    heartbeat_interval_idle,
-    heartbeat_interval_spread,
-    heartbeat_interval_told,
-)
+from robots.choices import RobotStatus
 from robots.models import Robot
+from robots.selectors import robots_heartbeating
 from robots.services import robot_heartbeat_record
 
 
@@ -63,17 +62,20 @@ class HeartbeatReply:
 
 
 @transaction.atomic(savepoint=False)  # if it raises, the caller's whole transaction rolls back
-def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = None):
+def heartbeat_apply(
+    *, robot: Robot, heartbeat: dict, now: datetime | None = None, waited: float = 0.0
+):
     """Apply one validated heartbeat (boards.serializers.HeartbeatSerializer) of a robot whose
     row the caller locked in its transaction (robots.services.robot_lock, or the heartbeat
-    view's RobotTokenLockingAuthentication).
+    view's RobotTokenLockingAuthentication); `waited`: seconds it waited for a web worker
+    (core.overload.request_waited).
 
     Acks and events are applied even when the heartbeat is stale (an older seq of the
     current boot, or an earlier boot): they are idempotent. Its state is applied only if it
     is the newest the server has seen.
     """
     now = now or timezone.now()
-    told, interval = _intervals(robot, heartbeat, now)
+    told, interval = _intervals(robot, heartbeat, now, waited)
     acked = board_ack(robot=robot, public_ids=heartbeat["acks"], now=now)
     events = _events_record(robot, heartbeat, now)
     requests = _requests_record(robot, heartbeat["requests"], now)
@@ -108,18 +110,44 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
     )
 
 
-def _intervals(robot: Robot, heartbeat: dict, now: datetime) -> tuple[float, float]:
+def _intervals(robot: Robot, heartbeat: dict, now: datetime, waited: float) -> tuple[float, float]:
     """(the interval the load allows, the one for this heartbeat): the second is longer while
     the robot is idle with the push channel open, and its presence follows it even when the
     answer then tells it the first (messages came meanwhile): never flipped for it. Each is
-    spread over robots when longer than the site's (robots.cadence)."""
-    told = heartbeat_interval_told(robot.site)
-    intervals = (told, heartbeat_interval_idle(told, heartbeat))
+    spread over robots when longer than the site's (core.overload)."""
     base = robot.site.heartbeat_interval
-    told, idle = (
-        heartbeat_interval_spread(robot.pk, each, base=base, now=now) for each in intervals
+    told = heartbeat_interval(
+        base=base,
+        previous=robot.heartbeat_interval_told,
+        waited=waited,
+        robots=robots_heartbeating(),
+        capacity=settings.HEARTBEAT_CAPACITY,
+        longest=settings.HEARTBEAT_INTERVAL_MAX,
     )
-    return told, idle
+    robot.heartbeat_interval_told = told
+    intervals = (told, _interval_idle(told, heartbeat))
+    spread = (heartbeat_interval_spread(robot.pk, each, base=base, now=now) for each in intervals)
+    return tuple(spread)
+
+
+def _interval_idle(told: float, heartbeat: dict) -> float:
+    """The interval for a robot idle with its push channel open: HEARTBEAT_IDLE_INTERVAL if
+    longer than `told`, else `told`.
+
+    Idle: the validated `heartbeat` says `push` (the robot holds the push channel), status
+    idle, nothing on board, and carries no events or requests. Such a robot has nothing to
+    report until the server posts it something, and the push channel wakes it at once when it
+    does, so its heartbeats only say it is still there: at the defaults, a fleet waiting at its
+    docks sends a fifth of the heartbeats. heartbeat_apply tells `told` instead when its answer
+    carries messages: the robot has work coming."""
+    if not settings.HEARTBEAT_IDLE_INTERVAL or not heartbeat.get("push"):
+        return told
+    state = heartbeat["state"]
+    if state["status"] != RobotStatus.IDLE or state["load"]:
+        return told
+    if heartbeat["events"] or heartbeat["requests"]:
+        return told
+    return max(told, float(settings.HEARTBEAT_IDLE_INTERVAL))
 
 
 def _events_record(robot: Robot, heartbeat: dict, now: datetime) -> list[RobotEvent]:

@@ -1,8 +1,12 @@
 """Reads about robots: for the other apps (the scheduler), which never reach further in, and
 for the pages (sites, the fleet, open alerts)."""
 
+import math
+import time
+
 from django.db.models import QuerySet
 
+from core.overload import COUNT_SECONDS
 from core.statements import Statement
 from robots.choices import Presence, RobotStatus
 from robots.mapcache import waypoint_by_id
@@ -47,6 +51,24 @@ _AVAILABLE = Statement(
     site_id=int,
     threshold=float,
 )
+
+
+def robots_heartbeating() -> int:
+    """Robots not offline, every site's: those whose heartbeats the web nodes take. Counted at
+    most every COUNT_SECONDS per process: every heartbeat asks."""
+    now = time.monotonic()
+    if now - _count["at"] >= COUNT_SECONDS:
+        _count["robots"] = Robot.objects.exclude(presence=Presence.OFFLINE).count()
+        _count["at"] = now
+    return _count["robots"]
+
+
+def robots_heartbeating_forget() -> None:
+    """Count again at the next heartbeat (tests)."""
+    _count["at"] = -math.inf
+
+
+_count = {"robots": 0, "at": -math.inf}
 
 
 def robot_position(robot: Robot) -> str:

@@ -7,7 +7,7 @@ Whenever a heartbeat or the sweep changes what people see of a robot, it is repo
 live pages (core.changes): at most once per heartbeat, and no query.
 """
 
-from datetime import datetime, timedelta
+from datetime import datetime
 
 from django.db import transaction
 from django.db.models import Q, QuerySet
@@ -17,7 +17,6 @@ from core import changes
 from core.statements import Statement, row_update
 from core.tokens import token_hash, token_new
 from robots.badges import badge_hash
-from robots.cadence import heartbeat_backlog
 from robots.choices import Presence
 from robots.hooks import presence_changed, token_issued
 from robots.models import (
@@ -111,7 +110,7 @@ def robot_heartbeat_record(
     now: datetime,
     interval: float | None = None,
 ) -> bool:
-    """Record that a heartbeat arrived, answered with `interval` (robots.cadence); store its
+    """Record that a heartbeat arrived, answered with `interval` (core.overload); store its
     state only if it is the newest.
 
     Returns whether the state was applied. Call with the robot locked (robot_lock).
@@ -119,7 +118,7 @@ def robot_heartbeat_record(
     fresh = _heartbeat_is_newest(robot, boot_id, seq, now)
     shown, last_seen = robot_visible(robot), robot.last_seen_at
     doing = robot_activity(robot)
-    update_fields = list(Robot.PRESENCE_FIELDS)
+    update_fields = [*Robot.PRESENCE_FIELDS, "heartbeat_interval_told"]
     if fresh:
         robot.apply_state(state, now)
         robot.boot_id, robot.seq = boot_id, seq
@@ -204,26 +203,19 @@ def robot_connection_lost(*, robot_id: int, graceful: bool, now: datetime | None
 
 
 def presence_sweep(*, now: datetime | None = None) -> int:
-    """Flip the presence of robots whose deadline has passed; returns how many flipped.
-
-    While heartbeats wait for a web worker, robots are given that long more: a robot's heartbeat
-    may be in the server's own queue, and then the server is late, not the robot (a fleet
-    starting at once would otherwise have hundreds flipped while their heartbeats queue)."""
+    """Flip the presence of robots whose deadline has passed; returns how many flipped."""
     now = now or timezone.now()
-    judged_at = now - timedelta(seconds=heartbeat_backlog(now))
     due = Robot.objects.filter(
-        Q(presence=Presence.ONLINE, unreachable_at__lte=judged_at)
-        | Q(presence__in=[Presence.ONLINE, Presence.UNREACHABLE], offline_at__lte=judged_at)
+        Q(presence=Presence.ONLINE, unreachable_at__lte=now)
+        | Q(presence__in=[Presence.ONLINE, Presence.UNREACHABLE], offline_at__lte=now)
     ).select_related("site")
-    return sum(presence_sweep_step(robot=robot, now=now, judged_at=judged_at) for robot in due)
+    return sum(presence_sweep_step(robot=robot, now=now) for robot in due)
 
 
 @transaction.atomic
-def presence_sweep_step(*, robot: Robot, now: datetime, judged_at: datetime | None = None) -> int:
-    """Flip one robot read by the sweep, unless its row changed since it was read: to its
-    presence at `judged_at` (`now` less the server's backlog, presence_sweep), recorded at
-    `now`."""
-    new = robot.presence_at(judged_at or now)
+def presence_sweep_step(*, robot: Robot, now: datetime) -> int:
+    """Flip one robot read by the sweep, unless its row changed since it was read."""
+    new = robot.presence_at(now)
     claimed = Robot.objects.filter(
         pk=robot.pk, presence=robot.presence, last_seen_at=robot.last_seen_at
     ).update(presence=new)
