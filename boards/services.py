@@ -17,7 +17,6 @@ from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.push import wake_now, wake_on_commit
 from core import memo
 from core.overload import heartbeat_interval, heartbeat_interval_spread
-from core.statements import Statement, row_insert, row_update, rows_insert, values_stored
 from robots.choices import RobotStatus
 from robots.models import Robot
 from robots.selectors import robots_heartbeating
@@ -155,7 +154,7 @@ def _events_record(robot: Robot, heartbeat: dict, now: datetime) -> list[RobotEv
     unseen = _unseen(robot, RobotEvent, "event_id", heartbeat["events"])
     if not unseen:  # most heartbeats
         return []
-    return rows_insert(  # bulk_create, its INSERT built once (core.statements)
+    return RobotEvent.objects.bulk_create(
         [
             RobotEvent(
                 robot=robot,
@@ -180,7 +179,7 @@ def _requests_record(robot: Robot, requests: list[dict], now: datetime) -> list[
     unseen = _unseen(robot, RobotRequest, "request_id", requests)
     if not unseen:
         return []
-    return rows_insert(
+    return RobotRequest.objects.bulk_create(
         [
             RobotRequest(
                 robot=robot,
@@ -204,7 +203,8 @@ def _unseen(robot: Robot, model, id_field: str, items: list[dict]) -> list[tuple
     incoming = _first_of_each_id(items)
     if not incoming:
         return []
-    seen = values_stored(model, id_field, list(incoming), robot_id=robot.pk)  # built once
+    stored = model.objects.filter(robot_id=robot.pk, **{f"{id_field}__in": list(incoming)})
+    seen = set(stored.values_list(id_field, flat=True))
     return [(item_id, item) for item_id, item in incoming.items() if item_id not in seen]
 
 
@@ -224,20 +224,14 @@ def _index_of_each_id(items: list[dict]) -> dict[str, int]:
 
 def board_pending(*, robot: Robot) -> list[BoardMessage]:
     """Messages on the robot's board, oldest first: what every heartbeat response carries."""
-    return _PENDING.all(robot_id=robot.pk)
-
-
-_PENDING = Statement(  # every heartbeat reads it: compiled once (core.statements)
-    lambda robot_id: BoardMessage.objects.pending().filter(robot_id=robot_id).order_by("id"),
-    robot_id=int,
-)
+    return list(BoardMessage.objects.pending().filter(robot_id=robot.pk).order_by("id"))
 
 
 def board_ack(*, robot: Robot, public_ids: list[str], now: datetime) -> list[BoardMessage]:
     """Take acked messages off the board; returns those this call took off (others ignored)."""
     if not public_ids:
         return []
-    if len(public_ids) == 1:  # nearly every ack: a plan, an action (statements compiled once)
+    if len(public_ids) == 1:  # nearly every ack: a plan, an action
         return _ack_one(robot, BoardMessage.pk_from_public_id(public_ids[0]), now)
     acked = list(BoardMessage.objects.pending().filter(robot=robot).with_public_ids(public_ids))
     if acked:
@@ -248,19 +242,14 @@ def board_ack(*, robot: Robot, public_ids: list[str], now: datetime) -> list[Boa
 
 
 def _ack_one(robot: Robot, pk: int | None, now: datetime) -> list[BoardMessage]:
-    message = _PENDING_ONE.first(robot_id=robot.pk, pk=pk) if pk is not None else None
+    if pk is None:
+        return []
+    message = BoardMessage.objects.pending().filter(robot_id=robot.pk, pk=pk).first()
     if message is None:
         return []
     message.acked_at = now
-    row_update(message, ["acked_at"])
+    message.save(update_fields=["acked_at"])
     return [message]
-
-
-_PENDING_ONE = Statement(
-    lambda robot_id, pk: BoardMessage.objects.pending().filter(robot_id=robot_id, pk=pk),
-    robot_id=int,
-    pk=int,
-)
 
 
 def board_post(
@@ -286,7 +275,7 @@ def board_post(
             reason="superseded",
             now=now,
         )
-    message = row_insert(BoardMessage(robot=robot, type=type, body=body, key=key, posted_at=now))
+    message = BoardMessage.objects.create(robot=robot, type=type, body=body, key=key, posted_at=now)
     wake = wake_now if robot_locked else wake_on_commit
     wake(robot_code=robot.code, message_id=message.public_id)
     return message

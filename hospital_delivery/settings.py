@@ -146,10 +146,18 @@ if DATABASES["default"]["ENGINE"] == "django.db.backends.sqlite3":
     }
     DATABASES["default"]["TEST"] = {"NAME": str(BASE_DIR / "var" / "test.sqlite3")}
 DEFAULT_AUTO_FIELD = "django.db.models.BigAutoField"
-# The heartbeat's statements (core/statements.py) are prepared once per PostgreSQL connection.
-# Turn off behind a connection pooler that does not keep prepared statements (PgBouncer in
-# transaction mode before 1.21).
+# On PostgreSQL, values are bound by the server and a statement run 5 times on a connection is
+# prepared there (Django's server_side_binding; psycopg's prepare_threshold, at psycopg's own
+# default): the hot paths' statements are parsed and planned once per connection. Turn off
+# behind a connection pooler that does not keep prepared statements (PgBouncer in transaction
+# mode before 1.21).
 DATABASE_PREPARED_STATEMENTS = env_bool("DATABASE_PREPARED_STATEMENTS", True)
+if DATABASES["default"]["ENGINE"] == "django.db.backends.postgresql" and (
+    DATABASE_PREPARED_STATEMENTS
+):
+    DATABASES["default"].setdefault("OPTIONS", {}).update(
+        server_side_binding=True, prepare_threshold=5
+    )
 
 REDIS_URL = env_str("REDIS_URL", "redis://127.0.0.1:6379/0")
 

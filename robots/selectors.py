@@ -7,7 +7,6 @@ import time
 from django.db.models import QuerySet
 
 from core.overload import COUNT_SECONDS
-from core.statements import Statement
 from robots.choices import Presence, RobotStatus
 from robots.mapcache import waypoint_by_id
 from robots.models import Alert, Robot, Site, SiteMembership
@@ -25,7 +24,7 @@ def robots_for_allocation(*, site: Site) -> list[Robot]:
     sent to charge (until charged), and with a reported battery level at or above the site's
     threshold (a robot that never reported has none).
     """
-    robots = _AVAILABLE.all(site_id=site.pk, threshold=site.battery_threshold)
+    robots = list(available_robots(site.pk, site.battery_threshold).order_by("code"))
     for robot in robots:
         robot.site = site
     return robots
@@ -43,14 +42,6 @@ def available_robots(site_id: int, threshold: float) -> QuerySet[Robot]:
         battery__isnull=False,
         battery__gte=threshold,
     ).exclude(status__in=UNAVAILABLE_STATUSES)
-
-
-# Every allocation reads them (a nurse's request among them): compiled once (core.statements).
-_AVAILABLE = Statement(
-    lambda site_id, threshold: available_robots(site_id, threshold).order_by("code"),
-    site_id=int,
-    threshold=float,
-)
 
 
 def robots_heartbeating() -> int:

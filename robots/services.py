@@ -14,7 +14,6 @@ from django.db.models import Q, QuerySet
 from django.utils import timezone
 
 from core import changes
-from core.statements import Statement, row_update
 from core.tokens import token_hash, token_new
 from robots.badges import badge_hash
 from robots.choices import Presence
@@ -37,9 +36,9 @@ LAST_SEEN_REFRESH_SECONDS = 10
 
 def robot_authenticate(*, token: str, lock: bool = False) -> Robot | None:
     """The robot a bearer token belongs to, or None; with `lock`, its row locked for the rest
-    of the transaction, as robot_lock does (every heartbeat: compiled once, core.statements)."""
+    of the transaction, as robot_lock does (every heartbeat)."""
     if lock:
-        return _ROBOT_BY_TOKEN_LOCKED.first(token_hash=token_hash(token))
+        return _locking(Robot.objects.filter(token_hash=token_hash(token))).first()
     return Robot.objects.with_token(token).select_related("site").first()
 
 
@@ -79,26 +78,12 @@ def robot_lock_if_available(robot_id: int, site: Site) -> Robot | None:
     For the scheduler, which reads the candidates unlocked: an operator's Pause, a presence
     flip or a heartbeat reporting an error may have come in between.
     """
-    return _AVAILABLE_LOCKED.first(
-        site_id=site.pk, threshold=site.battery_threshold, robot_id=robot_id
-    )
+    available = available_robots(site.pk, site.battery_threshold).filter(pk=robot_id)
+    return _locking(available).first()
 
 
 def _locking(robots: QuerySet[Robot]) -> QuerySet[Robot]:
     return robots.select_for_update(of=("self",), no_key=True).select_related("site")
-
-
-_AVAILABLE_LOCKED = Statement(
-    lambda site_id, threshold, robot_id: _locking(
-        available_robots(site_id, threshold).filter(pk=robot_id)
-    )[:1],
-    site_id=int,
-    threshold=float,
-    robot_id=int,
-)
-_ROBOT_BY_TOKEN_LOCKED = Statement(
-    lambda token_hash: _locking(Robot.objects.filter(token_hash=token_hash))[:1], token_hash=str
-)
 
 
 def robot_heartbeat_record(
@@ -124,7 +109,7 @@ def robot_heartbeat_record(
         robot.boot_id, robot.seq = boot_id, seq
         update_fields += [*Robot.STATE_FIELDS, "boot_id", "seq"]
     previous = robot.mark_seen(now, interval)
-    row_update(robot, update_fields)  # robot.save(update_fields=...), compiled once
+    robot.save(update_fields=update_fields)
     if previous is not None:
         _presence_record(robot, old=previous, new=Presence.ONLINE, at=now, cause="heartbeat")
     _activity_record(robot, previous=doing, at=now)
