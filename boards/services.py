@@ -86,6 +86,7 @@ def heartbeat_apply(
         state=heartbeat["state"],
         now=now,
         interval=interval,
+        waited=waited,
     )
     applied = AppliedHeartbeat(
         robot=robot,

@@ -94,6 +94,7 @@ def robot_heartbeat_record(
     state: dict,
     now: datetime,
     interval: float | None = None,
+    waited: float = 0.0,
 ) -> bool:
     """Record that a heartbeat arrived, answered with `interval` (core.overload); store its
     state only if it is the newest.
@@ -108,7 +109,7 @@ def robot_heartbeat_record(
         robot.apply_state(state, now)
         robot.boot_id, robot.seq = boot_id, seq
         update_fields += [*Robot.STATE_FIELDS, "boot_id", "seq"]
-    previous = robot.mark_seen(now, interval)
+    previous = robot.mark_seen(now, interval, waited)
     robot.save(update_fields=update_fields)
     if previous is not None:
         _presence_record(robot, old=previous, new=Presence.ONLINE, at=now, cause="heartbeat")

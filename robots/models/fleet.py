@@ -154,14 +154,19 @@ class Robot(models.Model):
             return Presence.UNREACHABLE
         return Presence.OFFLINE
 
-    def mark_seen(self, now: datetime, interval: float | None = None) -> str | None:
+    def mark_seen(
+        self, now: datetime, interval: float | None = None, waited: float = 0.0
+    ) -> str | None:
         """Record a heartbeat at `now`, answered with `interval` (seconds until the next; the
-        site's if not given); returns the previous presence if this changed it.
+        site's if not given) after it `waited` seconds for a web worker; returns the previous
+        presence if this changed it.
 
         The deadlines follow the interval the robot was told, so a robot told to wait longer
-        (core/overload.py) is not flipped for obeying."""
+        (core/overload.py) is not flipped for obeying; and they are later by the wait, since
+        its next heartbeat may wait as long in the server's queue, where the server is late,
+        not the robot (protocol v1, "Presence")."""
         previous = self.presence
-        online_for = ONLINE_INTERVALS * (interval or self.site.heartbeat_interval)
+        online_for = ONLINE_INTERVALS * (interval or self.site.heartbeat_interval) + waited
         self.last_seen_at = now
         self.unreachable_at = now + timedelta(seconds=online_for)
         self.offline_at = now + timedelta(seconds=max(self.site.offline_timeout, online_for))

@@ -108,6 +108,8 @@ def test_a_robot_told_a_longer_interval_under_load_is_not_flipped_for_obeying(ro
     assert robot.heartbeat_interval_told in (3.0, 3.5)
     told = robot.heartbeat_interval_told
     assert answer == heartbeat_interval_spread(robot.pk, told, base=1.0, now=robot.last_seen_at)
-    presence_sweep(now=robot.last_seen_at + timedelta(seconds=3 * answer - 0.01))
+    # Three intervals told, and as long again as this one waited: the next may wait as long.
+    assert robot.unreachable_at - robot.last_seen_at > timedelta(seconds=3 * answer + 2.0)
+    presence_sweep(now=robot.last_seen_at + timedelta(seconds=3 * answer + 1.99))
     robot.refresh_from_db()
     assert robot.presence == "online"
