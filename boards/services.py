@@ -12,6 +12,7 @@ from django.db import transaction
 from django.db.models import QuerySet
 from django.utils import timezone
 
+from boards.heartbeat_sql import board_pending_of
 from boards.hooks import heartbeat_applied
 from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.push import wake_now, wake_on_commit
@@ -225,7 +226,7 @@ def _index_of_each_id(items: list[dict]) -> dict[str, int]:
 
 def board_pending(*, robot: Robot) -> list[BoardMessage]:
     """Messages on the robot's board, oldest first: what every heartbeat response carries."""
-    return list(BoardMessage.objects.pending().filter(robot_id=robot.pk).order_by("id"))
+    return board_pending_of(robot.pk)  # every heartbeat reads it: plain SQL
 
 
 def board_ack(*, robot: Robot, public_ids: list[str], now: datetime) -> list[BoardMessage]:

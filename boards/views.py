@@ -8,6 +8,7 @@ from rest_framework.renderers import JSONRenderer
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
+from boards.heartbeat_sql import robot_by_token_locked
 from boards.metrics import heartbeat_interval_told_observe, heartbeat_observe
 from boards.protocol import heartbeat_reply_wire
 from boards.serializers import (
@@ -55,6 +56,14 @@ def read_json_body(request, *, limit: int):
     return json_parse(raw)
 
 
+class HeartbeatAuthentication(RobotTokenLockingAuthentication):
+    """The robot found by its token and locked by the heartbeat's own statement
+    (boards/heartbeat_sql.py)."""
+
+    def robot_find(self, token: str):
+        return robot_by_token_locked(token)
+
+
 class HeartbeatView(APIView):
     """A robot reports its state and events and receives what is on its message board.
 
@@ -64,7 +73,7 @@ class HeartbeatView(APIView):
     waiting for the disk, in the same round trip as its `SET LOCAL` (core/commits.py).
     """
 
-    authentication_classes = [RobotTokenLockingAuthentication]
+    authentication_classes = [HeartbeatAuthentication]
     permission_classes = [IsRobotInUrl]
     parser_classes = []  # read_json_body parses, to enforce the protocol's size limit
     renderer_classes = [JSONRenderer]
