@@ -62,7 +62,9 @@ def request_waited(stamp: str | None, *, now: float) -> float:
     except ValueError:
         return 0.0
     waited = now - started
-    return waited if 0.0 < waited < 3600.0 else 0.0
+    # nginx gives up on an upstream after 60 s (proxy_read_timeout): a longer wait is clocks
+    # that disagree, or a stamp the client wrote itself where no proxy replaced it.
+    return waited if 0.0 < waited < 60.0 else 0.0
 
 
 def heartbeat_interval_spread(
