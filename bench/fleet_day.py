@@ -143,8 +143,8 @@ def _run_all(args, settings: Settings) -> list[Result]:
                 "PYTHONHASHSEED": "0",  # set iteration order: the same run every time
                 "SECRET_KEY": os.environ.get("SECRET_KEY") or "bench-only",
                 "LOG_LEVEL": "WARNING",
-                # Robots heartbeat at the site's interval: the interval learned from how busy
-                # the server is (robots/cadence.py) would follow this simulation's own CPU time,
+                # Robots heartbeat at the site's interval: the interval stretched by the wait
+                # for a worker (core/overload.py) would follow this simulation's own CPU time,
                 # not the simulated hospital's, and the day would not be the same twice.
                 "HEARTBEAT_CAPACITY": "0",
             }

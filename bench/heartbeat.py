@@ -247,7 +247,7 @@ def _print_header(stack: Stack, postgres: bool, settings: Settings, argv, capaci
     print(f"server: {stack.description}; {'PostgreSQL' if postgres else 'SQLite (WAL)'}")
     print(
         f"HEARTBEAT_CAPACITY={capacity} (the operator's ceiling of heartbeats/s; below it the "
-        "server learns its own, robots/cadence.py)"
+        "wait for a worker stretches the interval, core/overload.py)"
     )
     path = "straight to gunicorn" if settings.direct else "through nginx, as in production"
     print(
@@ -529,7 +529,7 @@ def _print_table(loads: list[Load]) -> None:
         )
     print(
         "\noffered: heartbeats/s the robots would send at 1 Hz; they obey the interval each\n"
-        "answer tells them (told s: the median told while measured, robots/cadence.py), so\n"
+        "answer tells them (told s: the median told while measured, core/overload.py), so\n"
         "achieved is below offered when the server asks them to slow down.\n"
         "flips: robots flipped unreachable while measured (after the warm-up): a robot whose\n"
         "heartbeats come more than 3 told intervals apart is flipped by the sweep.\n"

@@ -172,7 +172,6 @@ class Stack:
                 *("--bind", f"127.0.0.1:{self.http_port}", "--worker-class", "sync"),
                 *("--workers", str(self.web_workers), "--graceful-timeout", "4"),
                 *("--no-control-socket", "--log-level", "warning"),
-                *("--config", "python:hospital_delivery.gunicorn_hooks"),
             ],
         )
         if self.with_daphne:

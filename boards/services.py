@@ -7,21 +7,20 @@ so concurrent or duplicated heartbeats of one robot are applied one after the ot
 from dataclasses import dataclass, field
 from datetime import datetime
 
+from django.conf import settings
 from django.db import transaction
 from django.db.models import QuerySet
 from django.utils import timezone
 
+from boards.heartbeat_sql import board_pending_of
 from boards.hooks import heartbeat_applied
 from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.push import wake_now, wake_on_commit
 from core import memo
-from core.statements import Statement, row_insert, row_update, rows_insert, values_stored
-from robots.cadence import (
-    heartbeat_interval_idle,
-    heartbeat_interval_spread,
-    heartbeat_interval_told,
-)
+from core.overload import heartbeat_interval, heartbeat_interval_spread
+from robots.choices import RobotStatus
 from robots.models import Robot
+from robots.selectors import robots_heartbeating
 from robots.services import robot_heartbeat_record
 
 
@@ -63,17 +62,20 @@ class HeartbeatReply:
 
 
 @transaction.atomic(savepoint=False)  # if it raises, the caller's whole transaction rolls back
-def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = None):
+def heartbeat_apply(
+    *, robot: Robot, heartbeat: dict, now: datetime | None = None, waited: float = 0.0
+):
     """Apply one validated heartbeat (boards.serializers.HeartbeatSerializer) of a robot whose
     row the caller locked in its transaction (robots.services.robot_lock, or the heartbeat
-    view's RobotTokenLockingAuthentication).
+    view's RobotTokenLockingAuthentication); `waited`: seconds it waited for a web worker
+    (core.overload.request_waited).
 
     Acks and events are applied even when the heartbeat is stale (an older seq of the
     current boot, or an earlier boot): they are idempotent. Its state is applied only if it
     is the newest the server has seen.
     """
     now = now or timezone.now()
-    told, interval = _intervals(robot, heartbeat, now)
+    told, interval = _intervals(robot, heartbeat, now, waited)
     acked = board_ack(robot=robot, public_ids=heartbeat["acks"], now=now)
     events = _events_record(robot, heartbeat, now)
     requests = _requests_record(robot, heartbeat["requests"], now)
@@ -85,6 +87,7 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
         state=heartbeat["state"],
         now=now,
         interval=interval,
+        waited=waited,
     )
     applied = AppliedHeartbeat(
         robot=robot,
@@ -108,18 +111,44 @@ def heartbeat_apply(*, robot: Robot, heartbeat: dict, now: datetime | None = Non
     )
 
 
-def _intervals(robot: Robot, heartbeat: dict, now: datetime) -> tuple[float, float]:
+def _intervals(robot: Robot, heartbeat: dict, now: datetime, waited: float) -> tuple[float, float]:
     """(the interval the load allows, the one for this heartbeat): the second is longer while
     the robot is idle with the push channel open, and its presence follows it even when the
     answer then tells it the first (messages came meanwhile): never flipped for it. Each is
-    spread over robots when longer than the site's (robots.cadence)."""
-    told = heartbeat_interval_told(robot.site)
-    intervals = (told, heartbeat_interval_idle(told, heartbeat))
+    spread over robots when longer than the site's (core.overload)."""
     base = robot.site.heartbeat_interval
-    told, idle = (
-        heartbeat_interval_spread(robot.pk, each, base=base, now=now) for each in intervals
+    told = heartbeat_interval(
+        base=base,
+        previous=robot.heartbeat_interval_told,
+        waited=waited,
+        robots=robots_heartbeating(),
+        capacity=settings.HEARTBEAT_CAPACITY,
+        longest=settings.HEARTBEAT_INTERVAL_MAX,
     )
-    return told, idle
+    robot.heartbeat_interval_told = told
+    intervals = (told, _interval_idle(told, heartbeat))
+    spread = (heartbeat_interval_spread(robot.pk, each, base=base, now=now) for each in intervals)
+    return tuple(spread)
+
+
+def _interval_idle(told: float, heartbeat: dict) -> float:
+    """The interval for a robot idle with its push channel open: HEARTBEAT_IDLE_INTERVAL if
+    longer than `told`, else `told`.
+
+    Idle: the validated `heartbeat` says `push` (the robot holds the push channel), status
+    idle, nothing on board, and carries no events or requests. Such a robot has nothing to
+    report until the server posts it something, and the push channel wakes it at once when it
+    does, so its heartbeats only say it is still there: at the defaults, a fleet waiting at its
+    docks sends a fifth of the heartbeats. heartbeat_apply tells `told` instead when its answer
+    carries messages: the robot has work coming."""
+    if not settings.HEARTBEAT_IDLE_INTERVAL or not heartbeat.get("push"):
+        return told
+    state = heartbeat["state"]
+    if state["status"] != RobotStatus.IDLE or state["load"]:
+        return told
+    if heartbeat["events"] or heartbeat["requests"]:
+        return told
+    return max(told, float(settings.HEARTBEAT_IDLE_INTERVAL))
 
 
 def _events_record(robot: Robot, heartbeat: dict, now: datetime) -> list[RobotEvent]:
@@ -127,7 +156,7 @@ def _events_record(robot: Robot, heartbeat: dict, now: datetime) -> list[RobotEv
     unseen = _unseen(robot, RobotEvent, "event_id", heartbeat["events"])
     if not unseen:  # most heartbeats
         return []
-    return rows_insert(  # bulk_create, its INSERT built once (core.statements)
+    return RobotEvent.objects.bulk_create(
         [
             RobotEvent(
                 robot=robot,
@@ -152,7 +181,7 @@ def _requests_record(robot: Robot, requests: list[dict], now: datetime) -> list[
     unseen = _unseen(robot, RobotRequest, "request_id", requests)
     if not unseen:
         return []
-    return rows_insert(
+    return RobotRequest.objects.bulk_create(
         [
             RobotRequest(
                 robot=robot,
@@ -176,7 +205,8 @@ def _unseen(robot: Robot, model, id_field: str, items: list[dict]) -> list[tuple
     incoming = _first_of_each_id(items)
     if not incoming:
         return []
-    seen = values_stored(model, id_field, list(incoming), robot_id=robot.pk)  # built once
+    stored = model.objects.filter(robot_id=robot.pk, **{f"{id_field}__in": list(incoming)})
+    seen = set(stored.values_list(id_field, flat=True))
     return [(item_id, item) for item_id, item in incoming.items() if item_id not in seen]
 
 
@@ -196,20 +226,14 @@ def _index_of_each_id(items: list[dict]) -> dict[str, int]:
 
 def board_pending(*, robot: Robot) -> list[BoardMessage]:
     """Messages on the robot's board, oldest first: what every heartbeat response carries."""
-    return _PENDING.all(robot_id=robot.pk)
-
-
-_PENDING = Statement(  # every heartbeat reads it: compiled once (core.statements)
-    lambda robot_id: BoardMessage.objects.pending().filter(robot_id=robot_id).order_by("id"),
-    robot_id=int,
-)
+    return board_pending_of(robot.pk)  # every heartbeat reads it: plain SQL
 
 
 def board_ack(*, robot: Robot, public_ids: list[str], now: datetime) -> list[BoardMessage]:
     """Take acked messages off the board; returns those this call took off (others ignored)."""
     if not public_ids:
         return []
-    if len(public_ids) == 1:  # nearly every ack: a plan, an action (statements compiled once)
+    if len(public_ids) == 1:  # nearly every ack: a plan, an action
         return _ack_one(robot, BoardMessage.pk_from_public_id(public_ids[0]), now)
     acked = list(BoardMessage.objects.pending().filter(robot=robot).with_public_ids(public_ids))
     if acked:
@@ -220,19 +244,14 @@ def board_ack(*, robot: Robot, public_ids: list[str], now: datetime) -> list[Boa
 
 
 def _ack_one(robot: Robot, pk: int | None, now: datetime) -> list[BoardMessage]:
-    message = _PENDING_ONE.first(robot_id=robot.pk, pk=pk) if pk is not None else None
+    if pk is None:
+        return []
+    message = BoardMessage.objects.pending().filter(robot_id=robot.pk, pk=pk).first()
     if message is None:
         return []
     message.acked_at = now
-    row_update(message, ["acked_at"])
+    message.save(update_fields=["acked_at"])
     return [message]
-
-
-_PENDING_ONE = Statement(
-    lambda robot_id, pk: BoardMessage.objects.pending().filter(robot_id=robot_id, pk=pk),
-    robot_id=int,
-    pk=int,
-)
 
 
 def board_post(
@@ -258,7 +277,7 @@ def board_post(
             reason="superseded",
             now=now,
         )
-    message = row_insert(BoardMessage(robot=robot, type=type, body=body, key=key, posted_at=now))
+    message = BoardMessage.objects.create(robot=robot, type=type, body=body, key=key, posted_at=now)
     wake = wake_now if robot_locked else wake_on_commit
     wake(robot_code=robot.code, message_id=message.public_id)
     return message

@@ -8,6 +8,7 @@ from rest_framework.renderers import JSONRenderer
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
+from boards.heartbeat_sql import robot_by_token_locked
 from boards.metrics import heartbeat_interval_told_observe, heartbeat_observe
 from boards.protocol import heartbeat_reply_wire
 from boards.serializers import (
@@ -20,17 +21,16 @@ from core.commits import relaxed_commit_unless_written
 from core.errors import ErrorSerializer
 from core.jsonbody import json_parse
 from core.negotiation import JsonOnly
+from core.overload import request_waited
 from robots.authentication import IsRobotInUrl, RobotTokenLockingAuthentication
 from robots.mapcache import site_map
-from robots.models import HeartbeatCadence, PresenceChange, Robot, RobotActivity, RobotBoot
+from robots.models import PresenceChange, Robot, RobotActivity, RobotBoot
 
-# What a heartbeat writes that its robot's next heartbeat writes again (or, for the heartbeat
-# cadence's row, the next window judged, robots/cadence.py): lost in a database crash, nothing
-# is lost (core/commits.py). A heartbeat that wrote anything else (its events, acks or requests,
-# a message posted, a task moved) commits durably as always.
+# What a heartbeat writes that its robot's next heartbeat writes again: lost in a database
+# crash, nothing is lost (core/commits.py). A heartbeat that wrote anything else (its events,
+# acks or requests, a message posted, a task moved) commits durably as always.
 REWRITTEN_BY_NEXT_HEARTBEAT = frozenset(
-    model._meta.db_table
-    for model in (Robot, PresenceChange, RobotActivity, RobotBoot, HeartbeatCadence)
+    model._meta.db_table for model in (Robot, PresenceChange, RobotActivity, RobotBoot)
 )
 
 
@@ -56,6 +56,14 @@ def read_json_body(request, *, limit: int):
     return json_parse(raw)
 
 
+class HeartbeatAuthentication(RobotTokenLockingAuthentication):
+    """The robot found by its token and locked by the heartbeat's own statement
+    (boards/heartbeat_sql.py)."""
+
+    def robot_find(self, token: str):
+        return robot_by_token_locked(token)
+
+
 class HeartbeatView(APIView):
     """A robot reports its state and events and receives what is on its message board.
 
@@ -65,7 +73,7 @@ class HeartbeatView(APIView):
     waiting for the disk, in the same round trip as its `SET LOCAL` (core/commits.py).
     """
 
-    authentication_classes = [RobotTokenLockingAuthentication]
+    authentication_classes = [HeartbeatAuthentication]
     permission_classes = [IsRobotInUrl]
     parser_classes = []  # read_json_body parses, to enforce the protocol's size limit
     renderer_classes = [JSONRenderer]
@@ -73,6 +81,8 @@ class HeartbeatView(APIView):
 
     def dispatch(self, request, *args, **kwargs):
         started = time.perf_counter()
+        stamp = request.META.get("HTTP_X_REQUEST_START")  # set by the proxy (nginx)
+        request.waited = request_waited(stamp, now=time.time())
         # The relaxed commit last in the transaction: it commits a plain heartbeat itself.
         with (
             transaction.atomic(),
@@ -102,7 +112,7 @@ class HeartbeatView(APIView):
         body = read_json_body(request, limit=settings.HEARTBEAT_MAX_BYTES)
         heartbeat = heartbeat_validate(body, site_map(robot.site))
         try:
-            reply = heartbeat_apply(robot=robot, heartbeat=heartbeat)
+            reply = heartbeat_apply(robot=robot, heartbeat=heartbeat, waited=request.waited)
         except HeartbeatRejected as rejected:
             raise exceptions.ValidationError(rejected.errors) from None
         heartbeat_interval_told_observe(reply.heartbeat_interval)

@@ -5,9 +5,6 @@ any view runs. A NUL character (`%00`) in a path or query parameter reaches look
 Robot.objects.filter(code=...), and PostgreSQL refuses it with an error (a 500). No code,
 page or parameter of ours contains one, so the request is refused as a whole.
 
-BusyMiddleware counts each request and reads the queue for a worker at its start, for how loaded
-the pool of web workers is (core/busy.py).
-
 CSPMiddleware is django-csp's, building the policy once instead of twice a response.
 """
 
@@ -20,8 +17,6 @@ from django.conf import settings
 from django.core.signals import setting_changed
 from django.dispatch import receiver
 from django.http import HttpResponseBadRequest, JsonResponse
-
-from core.busy import busy
 
 
 def _has_nul(request) -> bool:
@@ -41,22 +36,6 @@ class RefuseNulMiddleware:
         if request.path.startswith("/api/"):
             return JsonResponse({"error": "invalid", "detail": {"url": why}}, status=400)
         return HttpResponseBadRequest("The address contains a NUL character.")
-
-
-class BusyMiddleware:
-    """Counts every request this process serves and reads the queue for a worker as it starts
-    (core.busy), first in MIDDLEWARE: the heartbeat cadence (robots/cadence.py) reads how loaded
-    the web workers are."""
-
-    def __init__(self, get_response):
-        self.get_response = get_response
-
-    def __call__(self, request):
-        busy.started()
-        try:
-            return self.get_response(request)
-        finally:
-            busy.finished()
 
 
 class CSPMiddleware(csp.CSPMiddleware):

@@ -2,8 +2,7 @@
 
 Django's query log (CaptureQueriesContext) counts statements, not waits on the server: it lists
 Django's BEGIN and COMMIT even when psycopg sends nothing for them (a commit with no
-transaction open), and a statement of two commands as one; under it, core.statements binds
-values client-side instead of running its prepared statements. libpq's trace (PQtrace) records
+transaction open), and a statement of two commands as one. libpq's trace (PQtrace) records
 the messages themselves: a simple query (its text) or a Sync, which ends a prepared statement's
 run. For tests and benchmarks (bench/heartbeat_instructions.py); PostgreSQL only.
 """

@@ -108,6 +108,8 @@ http {{
             proxy_set_header Host $http_host;
             proxy_set_header X-Forwarded-For $proxy_add_x_forwarded_for;
             proxy_set_header X-Real-IP $remote_addr;
+            # When the request was passed on: the heartbeat's wait for a worker (core/overload.py).
+            proxy_set_header X-Request-Start "t=$msec";
             proxy_request_buffering on;  # the whole body first: slow clients never reach gunicorn
             proxy_buffering on;
         }}

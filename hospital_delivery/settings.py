@@ -87,8 +87,6 @@ INSTALLED_APPS = [
 ]
 
 MIDDLEWARE = [
-    # First: counts every request and reads the queue for a worker as it starts (core/busy.py).
-    "core.middleware.BusyMiddleware",
     "django.middleware.security.SecurityMiddleware",
     "core.middleware.RefuseNulMiddleware",
     "whitenoise.middleware.WhiteNoiseMiddleware",
@@ -151,10 +149,18 @@ if DATABASES["default"]["ENGINE"] == "django.db.backends.sqlite3":
     }
     DATABASES["default"]["TEST"] = {"NAME": str(BASE_DIR / "var" / "test.sqlite3")}
 DEFAULT_AUTO_FIELD = "django.db.models.BigAutoField"
-# The heartbeat's statements (core/statements.py) are prepared once per PostgreSQL connection.
-# Turn off behind a connection pooler that does not keep prepared statements (PgBouncer in
-# transaction mode before 1.21).
+# On PostgreSQL, values are bound by the server and a statement run 5 times on a connection is
+# prepared there (Django's server_side_binding; psycopg's prepare_threshold, at psycopg's own
+# default): the hot paths' statements are parsed and planned once per connection. Turn off
+# behind a connection pooler that does not keep prepared statements (PgBouncer in transaction
+# mode before 1.21).
 DATABASE_PREPARED_STATEMENTS = env_bool("DATABASE_PREPARED_STATEMENTS", True)
+if DATABASES["default"]["ENGINE"] == "django.db.backends.postgresql" and (
+    DATABASE_PREPARED_STATEMENTS
+):
+    DATABASES["default"].setdefault("OPTIONS", {}).update(
+        server_side_binding=True, prepare_threshold=5
+    )
 
 REDIS_URL = env_str("REDIS_URL", "redis://127.0.0.1:6379/0")
 
@@ -429,15 +435,14 @@ HEARTBEAT_MAX_BYTES = 64 * 1024
 
 # The operator's ceiling of heartbeats per second the web nodes are asked for together: when the
 # fleet would send more at the sites' intervals, every robot is told a longer heartbeat_interval
-# (robots/cadence.py), as it is whenever the web workers are saturated below it (learned from
-# the queue of connections waiting for them, core/busy.py). 0 turns every lengthening off.
-# 1,000 by default, about what a bare endpoint takes on 2 cores: below it the learned interval
-# does the work, and a lower ceiling would slow robots a server could still take.
+# (core/overload.py), as it is whenever heartbeats wait long for a web worker (the proxy's
+# X-Request-Start stamp). 0 turns every lengthening off. 1,000 by default, about what a bare
+# endpoint takes on 2 cores: below it the measured wait does the work.
 HEARTBEAT_CAPACITY = env_int("HEARTBEAT_CAPACITY", 1000, minimum=0)
 # The longest interval ever told; with many robots on a small server, past it heartbeats queue.
 HEARTBEAT_INTERVAL_MAX = env_int("HEARTBEAT_INTERVAL_MAX", 10, minimum=1)
 # Seconds told to a robot idle (nothing on board, nothing to report) that holds
-# the push channel open, which wakes it at once for anything posted (robots/cadence.py); the
+# the push channel open, which wakes it at once for anything posted (boards/services.py); the
 # site's interval when that is longer. 0: every robot is told its site's interval.
 HEARTBEAT_IDLE_INTERVAL = env_int("HEARTBEAT_IDLE_INTERVAL", 5, minimum=0)
 

@@ -14,10 +14,13 @@ class RobotTokenAuthentication(authentication.BaseAuthentication):
         token = bearer_token(request.headers.get("Authorization"))
         if token is None:
             return None
-        robot = robot_authenticate(token=token, lock=self.lock_robot)
+        robot = self.robot_find(token)
         if robot is None:
             raise exceptions.AuthenticationFailed("invalid or revoked robot token")
         return AnonymousUser(), robot
+
+    def robot_find(self, token: str):
+        return robot_authenticate(token=token, lock=self.lock_robot)
 
     def authenticate_header(self, request):
         return "Bearer"

@@ -1,9 +1,12 @@
 """Reads about robots: for the other apps (the scheduler), which never reach further in, and
 for the pages (sites, the fleet, open alerts)."""
 
+import math
+import time
+
 from django.db.models import QuerySet
 
-from core.statements import Statement
+from core.overload import COUNT_SECONDS
 from robots.choices import Presence, RobotStatus
 from robots.mapcache import waypoint_by_id
 from robots.models import Alert, Robot, Site, SiteMembership
@@ -21,7 +24,7 @@ def robots_for_allocation(*, site: Site) -> list[Robot]:
     sent to charge (until charged), and with a reported battery level at or above the site's
     threshold (a robot that never reported has none).
     """
-    robots = _AVAILABLE.all(site_id=site.pk, threshold=site.battery_threshold)
+    robots = list(available_robots(site.pk, site.battery_threshold).order_by("code"))
     for robot in robots:
         robot.site = site
     return robots
@@ -41,12 +44,22 @@ def available_robots(site_id: int, threshold: float) -> QuerySet[Robot]:
     ).exclude(status__in=UNAVAILABLE_STATUSES)
 
 
-# Every allocation reads them (a nurse's request among them): compiled once (core.statements).
-_AVAILABLE = Statement(
-    lambda site_id, threshold: available_robots(site_id, threshold).order_by("code"),
-    site_id=int,
-    threshold=float,
-)
+def robots_heartbeating() -> int:
+    """Robots not offline, every site's: those whose heartbeats the web nodes take. Counted at
+    most every COUNT_SECONDS per process: every heartbeat asks."""
+    now = time.monotonic()
+    if now - _count["at"] >= COUNT_SECONDS:
+        _count["robots"] = Robot.objects.exclude(presence=Presence.OFFLINE).count()
+        _count["at"] = now
+    return _count["robots"]
+
+
+def robots_heartbeating_forget() -> None:
+    """Count again at the next heartbeat (tests)."""
+    _count["at"] = -math.inf
+
+
+_count = {"robots": 0, "at": -math.inf}
 
 
 def robot_position(robot: Robot) -> str:

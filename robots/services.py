@@ -7,17 +7,15 @@ Whenever a heartbeat or the sweep changes what people see of a robot, it is repo
 live pages (core.changes): at most once per heartbeat, and no query.
 """
 
-from datetime import datetime, timedelta
+from datetime import datetime
 
 from django.db import transaction
 from django.db.models import Q, QuerySet
 from django.utils import timezone
 
 from core import changes
-from core.statements import Statement, row_update
 from core.tokens import token_hash, token_new
 from robots.badges import badge_hash
-from robots.cadence import heartbeat_backlog
 from robots.choices import Presence
 from robots.hooks import presence_changed, token_issued
 from robots.models import (
@@ -38,9 +36,9 @@ LAST_SEEN_REFRESH_SECONDS = 10
 
 def robot_authenticate(*, token: str, lock: bool = False) -> Robot | None:
     """The robot a bearer token belongs to, or None; with `lock`, its row locked for the rest
-    of the transaction, as robot_lock does (every heartbeat: compiled once, core.statements)."""
+    of the transaction, as robot_lock does (every heartbeat)."""
     if lock:
-        return _ROBOT_BY_TOKEN_LOCKED.first(token_hash=token_hash(token))
+        return _locking(Robot.objects.filter(token_hash=token_hash(token))).first()
     return Robot.objects.with_token(token).select_related("site").first()
 
 
@@ -80,26 +78,12 @@ def robot_lock_if_available(robot_id: int, site: Site) -> Robot | None:
     For the scheduler, which reads the candidates unlocked: an operator's Pause, a presence
     flip or a heartbeat reporting an error may have come in between.
     """
-    return _AVAILABLE_LOCKED.first(
-        site_id=site.pk, threshold=site.battery_threshold, robot_id=robot_id
-    )
+    available = available_robots(site.pk, site.battery_threshold).filter(pk=robot_id)
+    return _locking(available).first()
 
 
 def _locking(robots: QuerySet[Robot]) -> QuerySet[Robot]:
     return robots.select_for_update(of=("self",), no_key=True).select_related("site")
-
-
-_AVAILABLE_LOCKED = Statement(
-    lambda site_id, threshold, robot_id: _locking(
-        available_robots(site_id, threshold).filter(pk=robot_id)
-    )[:1],
-    site_id=int,
-    threshold=float,
-    robot_id=int,
-)
-_ROBOT_BY_TOKEN_LOCKED = Statement(
-    lambda token_hash: _locking(Robot.objects.filter(token_hash=token_hash))[:1], token_hash=str
-)
 
 
 def robot_heartbeat_record(
@@ -110,8 +94,9 @@ def robot_heartbeat_record(
     state: dict,
     now: datetime,
     interval: float | None = None,
+    waited: float = 0.0,
 ) -> bool:
-    """Record that a heartbeat arrived, answered with `interval` (robots.cadence); store its
+    """Record that a heartbeat arrived, answered with `interval` (core.overload); store its
     state only if it is the newest.
 
     Returns whether the state was applied. Call with the robot locked (robot_lock).
@@ -119,13 +104,13 @@ def robot_heartbeat_record(
     fresh = _heartbeat_is_newest(robot, boot_id, seq, now)
     shown, last_seen = robot_visible(robot), robot.last_seen_at
     doing = robot_activity(robot)
-    update_fields = list(Robot.PRESENCE_FIELDS)
+    update_fields = [*Robot.PRESENCE_FIELDS, "heartbeat_interval_told"]
     if fresh:
         robot.apply_state(state, now)
         robot.boot_id, robot.seq = boot_id, seq
         update_fields += [*Robot.STATE_FIELDS, "boot_id", "seq"]
-    previous = robot.mark_seen(now, interval)
-    row_update(robot, update_fields)  # robot.save(update_fields=...), compiled once
+    previous = robot.mark_seen(now, interval, waited)
+    robot.save(update_fields=update_fields)
     if previous is not None:
         _presence_record(robot, old=previous, new=Presence.ONLINE, at=now, cause="heartbeat")
     _activity_record(robot, previous=doing, at=now)
@@ -204,26 +189,19 @@ def robot_connection_lost(*, robot_id: int, graceful: bool, now: datetime | None
 
 
 def presence_sweep(*, now: datetime | None = None) -> int:
-    """Flip the presence of robots whose deadline has passed; returns how many flipped.
-
-    While heartbeats wait for a web worker, robots are given that long more: a robot's heartbeat
-    may be in the server's own queue, and then the server is late, not the robot (a fleet
-    starting at once would otherwise have hundreds flipped while their heartbeats queue)."""
+    """Flip the presence of robots whose deadline has passed; returns how many flipped."""
     now = now or timezone.now()
-    judged_at = now - timedelta(seconds=heartbeat_backlog(now))
     due = Robot.objects.filter(
-        Q(presence=Presence.ONLINE, unreachable_at__lte=judged_at)
-        | Q(presence__in=[Presence.ONLINE, Presence.UNREACHABLE], offline_at__lte=judged_at)
+        Q(presence=Presence.ONLINE, unreachable_at__lte=now)
+        | Q(presence__in=[Presence.ONLINE, Presence.UNREACHABLE], offline_at__lte=now)
     ).select_related("site")
-    return sum(presence_sweep_step(robot=robot, now=now, judged_at=judged_at) for robot in due)
+    return sum(presence_sweep_step(robot=robot, now=now) for robot in due)
 
 
 @transaction.atomic
-def presence_sweep_step(*, robot: Robot, now: datetime, judged_at: datetime | None = None) -> int:
-    """Flip one robot read by the sweep, unless its row changed since it was read: to its
-    presence at `judged_at` (`now` less the server's backlog, presence_sweep), recorded at
-    `now`."""
-    new = robot.presence_at(judged_at or now)
+def presence_sweep_step(*, robot: Robot, now: datetime) -> int:
+    """Flip one robot read by the sweep, unless its row changed since it was read."""
+    new = robot.presence_at(now)
     claimed = Robot.objects.filter(
         pk=robot.pk, presence=robot.presence, last_seen_at=robot.last_seen_at
     ).update(presence=new)

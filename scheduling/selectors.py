@@ -12,7 +12,6 @@ from django.utils import timezone
 
 from boards.choices import EventType
 from boards.models import RobotEvent
-from core.statements import Statement
 from robots.choices import Presence, WaypointKind
 from robots.mapcache import site_map, waypoint_by_id
 from robots.models import Robot, Site, Waypoint
@@ -73,29 +72,20 @@ def robot_routes(
 
 
 def _route_stops(robots: dict[int, Robot]) -> list[TaskStop]:
-    """The stops of the robots' route tasks, by task and index: of the robot alone, or of its
-    site's robots (one statement, robot or site, compiled once: every allocation and every
-    heartbeat reporting progress reads them); any other set of robots, by the ORM."""
+    """The stops of the robots' route tasks, by task and index: of the robot alone, of its
+    site's robots (every allocation and every heartbeat reporting progress reads them), or of
+    any other set of robots."""
     if len(robots) == 1:
-        return _ROBOT_ROUTE_STOPS.all(robot_id=next(iter(robots)))
+        return list(_route_stops_of(task__robot_id=next(iter(robots))))
     sites = {robot.site_id for robot in robots.values()}
     if len(sites) == 1:
-        return _SITE_ROUTE_STOPS.all(site_id=sites.pop())
+        return list(_route_stops_of(task__site_id=sites.pop(), task__robot__isnull=False))
     return list(_route_stops_of(task__robot__in=list(robots)))
 
 
 def _route_stops_of(**where) -> QuerySet[TaskStop]:
     stops = TaskStop.objects.filter(task__status__in=ROUTE_STATUSES, **where)
     return stops.select_related("task").order_by("task_id", "index")
-
-
-_ROBOT_ROUTE_STOPS = Statement(
-    lambda robot_id: _route_stops_of(task__robot_id=robot_id), robot_id=int
-)
-_SITE_ROUTE_STOPS = Statement(
-    lambda site_id: _route_stops_of(task__site_id=site_id, task__robot__isnull=False),
-    site_id=int,
-)
 
 
 def robot_route(
@@ -194,15 +184,14 @@ def task_detail_of(task: Task) -> Task:
     """task_detail of a task this request holds, having just created or changed it: its row,
     site, requester, robot and recurring request as the request has them (kept up to date by
     the services that changed them); its stops and history as the service that created it
-    wrote them (task_details_known), else read by two compiled statements (core.statements)
-    instead of the prefetch that task_detail builds again every time. A nurse's request
-    answers sooner (bench/latency.py)."""
+    wrote them (task_details_known), else read by two plain queries instead of the prefetch.
+    A nurse's request answers sooner (bench/latency.py)."""
     known = getattr(task, "_details_known", None)
     if known is not None:
         stops, history = known
     else:
-        stops = _STOPS_OF.all(task_id=task.pk)
-        history = _HISTORY_OF.all(task_id=task.pk)
+        stops = list(_STOPS.queryset.filter(task_id=task.pk).order_by("index"))
+        history = list(_HISTORY.queryset.filter(task_id=task.pk).order_by("id"))
     for row in (*stops, *history):
         row.task = task  # as a prefetch would: the rows' task is this one, not read again
     cache = getattr(task, "_prefetched_objects_cache", {})
@@ -221,12 +210,6 @@ def task_details_known(task: Task, *, stops: list[TaskStop], history: list) -> N
 _STOPS = Prefetch("stops", queryset=TaskStop.objects.select_related("waypoint"))
 _HISTORY = Prefetch(
     "history", queryset=TaskTransition.objects.select_related("robot", "event", "user")
-)
-_STOPS_OF = Statement(
-    lambda task_id: _STOPS.queryset.filter(task_id=task_id).order_by("index"), task_id=int
-)
-_HISTORY_OF = Statement(
-    lambda task_id: _HISTORY.queryset.filter(task_id=task_id).order_by("id"), task_id=int
 )
 
 

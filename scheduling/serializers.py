@@ -10,7 +10,6 @@ from rest_framework.fields import SkipField, get_error_detail
 
 from core.fields import StrictCharField, StrictDateTimeField, StrictIntegerField
 from core.serializers import FieldsKeptPerThread
-from core.statements import Statement
 from robots.models import Site
 from scheduling.choices import PRIORITY_ALIASES, Priority, TaskStatus
 from scheduling.deadlines import lateness_note, priority_of
@@ -111,7 +110,7 @@ class TaskRequestSerializer(FieldsKeptPerThread, serializers.Serializer):
     )
 
     def validate_site(self, code):
-        site = _SITE_BY_CODE.first(code=code)
+        site = Site.objects.filter(code=code).first()
         if site is None:
             raise serializers.ValidationError(f"unknown site {code!r}")
         return site
@@ -190,7 +189,7 @@ def _due_by_check(attrs: dict, found: dict) -> None:
 
 
 def _only_site(found: dict) -> Site | None:
-    sites = _TWO_SITES.all()
+    sites = list(Site.objects.all()[:2])  # one site, or "name the site"
     if len(sites) != 1:
         found["site"] = ["required: name the site"]
         return None
@@ -209,11 +208,6 @@ def _station_errors(name: str, codes: list[str], stations: dict, pickups) -> dic
         elif code in pickups:
             errors[n] = [f"{stations[code].label} is also a pick-up"]
     return {name: errors} if errors else {}
-
-
-# Every delivery request reads its site: compiled once (core.statements).
-_SITE_BY_CODE = Statement(lambda code: Site.objects.filter(code=code), code=str)
-_TWO_SITES = Statement(lambda: Site.objects.all()[:2])  # one site, or "name the site"
 
 
 class TaskStopSerializer(serializers.ModelSerializer):

@@ -6,7 +6,7 @@ import pytest
 import requests
 from django.conf import settings
 
-from robots import cadence
+from robots import selectors
 from tests import factories, servers
 
 
@@ -68,10 +68,10 @@ def robot_http(live_server, robot):
 @pytest.fixture
 def fleet_counted_once(monkeypatch):
     """For tests that count a heartbeat's queries: the fleet is counted at most every
-    COUNT_SECONDS (robots/cadence.py), and on a loaded machine the heartbeat asserted on came
-    more than that after the first and counted one query more (CI, 2026-11-24 and 2026-11-25).
+    COUNT_SECONDS (robots.selectors.robots_heartbeating), and on a loaded machine the heartbeat
+    asserted on came more than that after the first and counted one query more.
     Counted at most once, as on a machine that keeps up."""
-    monkeypatch.setattr(cadence, "COUNT_SECONDS", math.inf)
+    monkeypatch.setattr(selectors, "COUNT_SECONDS", math.inf)
 
 
 @pytest.fixture

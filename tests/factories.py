@@ -12,9 +12,9 @@ from django.utils import timezone
 from boards.serializers import HeartbeatSerializer
 from boards.services import heartbeat_apply
 from core.access import GROUPS
+from core.overload import heartbeat_interval_spread
 from hospital_delivery.models import ApiToken
 from resources.models import Lease
-from robots.cadence import heartbeat_interval_spread
 from robots.mapcache import floor_code_by_id, site_map
 from robots.models import Robot, Site, SiteMembership
 from robots.services import robot_lock, robot_token_issue
@@ -247,7 +247,7 @@ def _latest_lease(robot, resource):
 
 def interval_told(robot: Robot, interval: float) -> float:
     """What `robot` was told at its last heartbeat for `interval`: spread over the robots when
-    longer than its site's (robots.cadence.heartbeat_interval_spread), from when it was seen."""
+    longer than its site's (core.overload.heartbeat_interval_spread), from when it was seen."""
     robot.refresh_from_db()
     base = robot.site.heartbeat_interval
     return heartbeat_interval_spread(robot.pk, interval, base=base, now=robot.last_seen_at)

@@ -70,7 +70,6 @@ def gunicorn(*, workers: int = 2, env: dict | None = None, port: int | None = No
         *(sys.executable, "-m", "gunicorn", "hospital_delivery.wsgi:application"),
         *("--bind", f"127.0.0.1:{port}", "--workers", str(workers)),
         *("--no-control-socket", "--log-level", "warning"),
-        *("--config", "python:hospital_delivery.gunicorn_hooks"),
     ]
     server_env = {
         **os.environ,

@@ -17,7 +17,6 @@ from django.db import transaction
 from django.utils import timezone
 
 from core import changes, memo
-from core.statements import Statement
 from fhir_r4.representation import task_resource
 from fhir_r4.selectors import task_for_webhook
 from scheduling.models import TaskTransition
@@ -42,7 +41,7 @@ def deliveries_for_change(*, kind: str, site_id: int, subject, **_) -> list[int]
     subscribes, one per heartbeat or allocation batch (core.memo) however many tasks move."""
     if kind != changes.TASK or subject.old == subject.new:
         return []
-    active = memo.once(("webhooks.active", site_id), lambda: _ACTIVE.all(site_id=site_id))
+    active = memo.once(("webhooks.active", site_id), lambda: _active(site_id))
     wanted = [s for s in active if s.wants(subject.new)]
     if not wanted:
         return []
@@ -66,15 +65,10 @@ def deliveries_for_change(*, kind: str, site_id: int, subject, **_) -> list[int]
     return [row.pk for row in WebhookDelivery.objects.bulk_create(rows)]
 
 
-# Every status change of every task asks: a statement compiled once (core/statements.py).
-_ACTIVE = Statement(
-    lambda site_id: (
-        Subscription.objects.filter(site_id=site_id, active=True)
-        .select_related("site")
-        .order_by("pk")
-    ),
-    site_id=int,
-)
+def _active(site_id: int) -> list[Subscription]:
+    """The site's active subscriptions: every status change of every task asks."""
+    subscriptions = Subscription.objects.filter(site_id=site_id, active=True)
+    return list(subscriptions.select_related("site").order_by("pk"))
 
 
 def task_event_payload(entry: TaskTransition) -> dict:

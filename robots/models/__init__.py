@@ -1,6 +1,5 @@
 from robots.models.alerts import Alert, AlertKind
 from robots.models.fleet import (
-    HeartbeatCadence,
     PresenceChange,
     Robot,
     RobotActivity,
@@ -15,7 +14,6 @@ __all__ = [
     "AlertKind",
     "Edge",
     "Floor",
-    "HeartbeatCadence",
     "PresenceChange",
     "Resource",
     "ResourceWaypoint",

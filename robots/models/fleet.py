@@ -66,6 +66,9 @@ class Robot(models.Model):
     last_seen_at = models.DateTimeField(null=True, blank=True)
     unreachable_at = models.DateTimeField(null=True, blank=True)
     offline_at = models.DateTimeField(null=True, blank=True)
+    # The heartbeat interval the load asked of this robot at its last heartbeat (seconds, 0:
+    # none yet), from which the next is judged (core/overload.py).
+    heartbeat_interval_told = models.FloatField(default=0.0)
 
     # Set by an operator's Pause or Return to dock, cleared by Resume (scheduling.services
     # .operator):
@@ -154,14 +157,19 @@ class Robot(models.Model):
             return Presence.UNREACHABLE
         return Presence.OFFLINE
 
-    def mark_seen(self, now: datetime, interval: float | None = None) -> str | None:
+    def mark_seen(
+        self, now: datetime, interval: float | None = None, waited: float = 0.0
+    ) -> str | None:
         """Record a heartbeat at `now`, answered with `interval` (seconds until the next; the
-        site's if not given); returns the previous presence if this changed it.
+        site's if not given) after it `waited` seconds for a web worker; returns the previous
+        presence if this changed it.
 
         The deadlines follow the interval the robot was told, so a robot told to wait longer
-        (robots/cadence.py) is not flipped for obeying."""
+        (core/overload.py) is not flipped for obeying; and they are later by the wait, since
+        its next heartbeat may wait as long in the server's queue, where the server is late,
+        not the robot (protocol v1, "Presence")."""
         previous = self.presence
-        online_for = ONLINE_INTERVALS * (interval or self.site.heartbeat_interval)
+        online_for = ONLINE_INTERVALS * (interval or self.site.heartbeat_interval) + waited
         self.last_seen_at = now
         self.unreachable_at = now + timedelta(seconds=online_for)
         self.offline_at = now + timedelta(seconds=max(self.site.offline_timeout, online_for))
@@ -241,27 +249,3 @@ class RobotActivity(models.Model):
 def robot_activity(robot: Robot) -> str:
     """The activity a robot's stored state amounts to (RobotActivity.activity)."""
     return robot.status if robot.presence == Presence.ONLINE else robot.presence
-
-
-class HeartbeatCadence(models.Model):
-    """The heartbeat interval the load asks for and the capacity it was learned from, one row
-    shared by every web process (robots/cadence.py): the process that changes it writes it
-    here, the others adopt it within COUNT_SECONDS. Judged by each process alone, the processes
-    disagree after an overload, and the robots one of them answers heartbeat at its interval."""
-
-    interval = models.FloatField(default=0.0)  # seconds; 0: none asked, the sites' own
-    # Of a processor, what one node's pool of web workers used while connections waited for
-    # one: the capacity the interval was judged from (robots/cadence.py), adopted with it.
-    cpu_share = models.FloatField(default=0.0)
-    changed_at = models.DateTimeField(null=True)
-    # Seconds a heartbeat arriving at `backlog_at` waited for a web worker, as the latest web
-    # process to see the queue stand judged it: the presence sweep gives robots that long
-    # more, since their heartbeats are in the server's queue (robots.cadence.heartbeat_backlog).
-    backlog_seconds = models.FloatField(default=0.0)
-    backlog_at = models.DateTimeField(null=True)
-
-    class Meta:
-        db_table = "robots_heartbeat_cadence"
-
-    def __str__(self) -> str:
-        return f"heartbeat interval asked: {self.interval:g} s"

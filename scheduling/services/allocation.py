@@ -22,7 +22,6 @@ from django.db.models import Case, IntegerField, Value, When
 from django.utils import timezone
 
 from core import memo
-from core.statements import Statement, row_claim
 from robots.mapcache import router_for
 from robots.models import Robot, Site
 from robots.selectors import robots_for_allocation
@@ -332,24 +331,17 @@ def _allocation_lock(site_id: int, *, wait: bool = True) -> Site | None:
 
     Without `wait`, None if another transaction holds it.
     """
-    lock = _LOCK[wait].first(site_id=site_id)
+    lock = _lock_row(site_id, wait=wait)
     if lock is None:  # held by another transaction, or the site's first allocation
         _, created = AllocationLock.objects.get_or_create(site_id=site_id)
         if created or wait:
-            lock = _LOCK[True].first(site_id=site_id)  # this transaction's own row: not skipped
+            lock = _lock_row(site_id, wait=True)  # this transaction's own row: not skipped
     return lock.site if lock else None
 
 
-def _lock_row(site_id: int, *, wait: bool):
+def _lock_row(site_id: int, *, wait: bool) -> AllocationLock | None:
     locked = AllocationLock.objects.select_for_update(of=("self",), skip_locked=not wait)
-    return locked.select_related("site").filter(site_id=site_id)[:1]
-
-
-# Every allocation takes it (a nurse's request among them): compiled once (core.statements).
-_LOCK = {
-    wait: Statement(lambda site_id, wait=wait: _lock_row(site_id, wait=wait), site_id=int)
-    for wait in (True, False)
-}
+    return next(iter(locked.select_related("site").filter(site_id=site_id)[:1]), None)
 
 
 @ALLOCATION_SECONDS.time()
@@ -455,13 +447,14 @@ def _assign(task: Task, robot: Robot, held: HeldRoute, stops, now: datetime) -> 
 
 def _task_claim(task: Task, robot: Robot, now: datetime, ack_due_at: datetime) -> bool:
     """Assign the task to the robot if it is still due and unassigned (its row claimed by a
-    statement compiled once, core.statements); else leave it as it was and return False."""
+    conditional update); else leave it as it was and return False."""
     claimed = {"robot": robot, "assigned_at": now, "ack_due_at": ack_due_at}
     claimed |= {"status": TaskStatus.ASSIGNED, "waiting_reason": ""}
     was = {name: getattr(task, name) for name in claimed}
     for name, value in claimed.items():
         setattr(task, name, value)
-    if row_claim(task, list(claimed), status=TaskStatus.DUE, robot=None):
+    unclaimed = Task.objects.filter(pk=task.pk, status=TaskStatus.DUE, robot=None)
+    if unclaimed.update(**claimed):
         return True
     for name, value in was.items():
         setattr(task, name, value)

@@ -29,7 +29,6 @@ from boards.choices import EventType
 from boards.models import RobotEvent
 from boards.services import AppliedHeartbeat
 from core import changes
-from core.statements import Statement, row_update, rows_update
 from resources.choices import HOLDING_LEASE_STATES
 from resources.leases import resource_wait_estimate
 from resources.models import Lease, Resource
@@ -135,9 +134,8 @@ def etas_set(tasks: dict[str, Task], times: Iterable[StopTime], now: datetime) -
 
 
 def etas_write(tasks: list[Task]) -> None:
-    """Write the tasks' ETAs, in one statement on PostgreSQL however many (rows_update); no
-    query for none."""
-    rows_update(tasks, ["eta", "pickup_eta"])
+    """Write the tasks' ETAs, in one statement however many; no query for none."""
+    Task.objects.bulk_update(tasks, ["eta", "pickup_eta"])
 
 
 def _at(now: datetime, seconds: float) -> datetime | None:
@@ -233,7 +231,7 @@ def robot_pace_learn(*, robot: Robot, events: list[RobotEvent]) -> None:
         elif event in done:
             changed += _dwell_learn(robot, event, arrivals)
     if changed:
-        row_update(robot, sorted(set(changed)))  # robot.save(update_fields=...), compiled once
+        robot.save(update_fields=sorted(set(changed)))
 
 
 def _travel_learn(robot: Robot, event: RobotEvent) -> list[str]:
@@ -277,21 +275,12 @@ def _arrivals(robot: Robot, done: list[RobotEvent]) -> list[RobotEvent]:
     found = [
         arrived
         for code in sorted({event.task for event in done})
-        for arrived in _ARRIVALS.all(robot_id=robot.pk, task=code, before=before)
+        for arrived in RobotEvent.objects.filter(
+            robot_id=robot.pk, type=EventType.ARRIVED, task=code, id__lt=before
+        )
         if (arrived.task, arrived.stop) in stops
     ]
     return sorted(found, key=lambda event: -event.id)
-
-
-# Every delivery reported reads them: compiled once (core.statements).
-_ARRIVALS = Statement(
-    lambda robot_id, task, before: RobotEvent.objects.filter(
-        robot_id=robot_id, type=EventType.ARRIVED, task=task, id__lt=before
-    ),
-    robot_id=int,
-    task=str,
-    before=int,
-)
 
 
 def _dwell_learn(robot: Robot, event: RobotEvent, arrivals: list[RobotEvent]) -> list[str]:

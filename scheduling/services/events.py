@@ -10,7 +10,6 @@ from datetime import datetime
 from boards.choices import EventType, MessageType
 from boards.models import BoardMessage, RobotEvent
 from boards.services import AppliedHeartbeat, HeartbeatRejected
-from core.statements import Statement, row_update
 from robots.alerts import alert_raise
 from robots.models import AlertKind, Robot
 from scheduling.choices import (
@@ -21,7 +20,6 @@ from scheduling.choices import (
     TaskStatus,
 )
 from scheduling.models import CustodyKind, Task, TaskStop
-from scheduling.models.tasks import task_pk
 from scheduling.services.custody import (
     custody_record,
     custody_words,
@@ -82,29 +80,8 @@ def _plan_tasks(message: BoardMessage) -> list[str]:
 
 def _tasks(robot: Robot, codes) -> dict[str, Task]:
     """The tasks of the site with these codes, each with its stops."""
-    if len(codes) == 1:  # nearly every heartbeat with task events (statements compiled once)
-        return _task_of(robot, task_pk(next(iter(codes))))
     found = Task.objects.with_codes(codes).filter(site_id=robot.site_id)
     return {task.code: task for task in found.prefetch_related("stops")}
-
-
-def _task_of(robot: Robot, pk: int | None) -> dict[str, Task]:
-    task = _TASK.first(pk=pk, site_id=robot.site_id) if pk is not None else None
-    if task is None:
-        return {}
-    stops = _STOPS.all(task_id=task.pk)
-    for stop in stops:
-        stop.task = task
-    prefetched = task.stops.get_queryset()  # as prefetch_related("stops") leaves it
-    prefetched._result_cache, prefetched._prefetch_done = stops, True
-    task._prefetched_objects_cache = {"stops": prefetched}
-    return {task.code: task}
-
-
-_TASK = Statement(
-    lambda pk, site_id: Task.objects.filter(pk=pk, site_id=site_id), pk=int, site_id=int
-)
-_STOPS = Statement(lambda task_id: TaskStop.objects.filter(task_id=task_id), task_id=int)
 
 
 def _check(events: list[tuple[int, RobotEvent]], tasks: dict[str, Task]) -> None:
@@ -255,7 +232,7 @@ def _stop_done(beat: _Heartbeat, task: Task, event: RobotEvent) -> bool:
     if not stop.is_remaining:
         return False
     stop.done_at, stop.done_by = beat.now, event
-    row_update(stop, ["done_at", "done_by"])  # stop.save(update_fields=...), compiled once
+    stop.save(update_fields=["done_at", "done_by"])
     return True
 
 

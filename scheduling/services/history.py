@@ -16,7 +16,6 @@ from django.db import transaction
 
 from core import changes
 from core.outbox import send_soon
-from core.statements import row_insert, row_update, rows_insert
 from scheduling.models import Task, TaskTransition
 from scheduling.pending import allocation_pending_claim
 
@@ -31,7 +30,7 @@ def task_move(task: Task, new: str, *, at: datetime, fields=(), **why) -> None:
     old, task.status = task.status, new
     held = _HELD.get()
     if held is None:
-        row_update(task, ["status", *fields])  # task.save(update_fields=...), compiled once
+        task.save(update_fields=["status", *fields])
     else:
         held.save(task, ["status", *fields])
     task_record(task, old=old, at=at, **why)
@@ -55,7 +54,7 @@ def task_record(
     if held is not None:
         held.entries.append(entry)
         return entry
-    row_insert(entry)  # entry.save(force_insert=True), its INSERT built once
+    entry.save(force_insert=True)
     changes.changed(kind=changes.TASK, site_id=task.site_id, subject=entry)
     return entry
 
@@ -68,7 +67,7 @@ def tasks_record(moved: list[tuple[Task, object]], *, old: str, at: datetime, ca
 
 def _entries_store(entries: list[TaskTransition]) -> None:
     """Insert history entries in one statement, then tell each (core.changes), in order."""
-    for entry in rows_insert(entries):  # bulk_create, its INSERT built once
+    for entry in TaskTransition.objects.bulk_create(entries):
         changes.changed(kind=changes.TASK, site_id=entry.task.site_id, subject=entry)
 
 
@@ -86,7 +85,7 @@ class _HeldMoves:
         tasks, entries = list(self.tasks.values()), self.entries
         self.tasks, self.entries = {}, []
         for task, fields in tasks:
-            row_update(task, sorted(fields))  # task.save(update_fields=...), compiled once
+            task.save(update_fields=sorted(fields))
         _entries_store(entries)
 
 

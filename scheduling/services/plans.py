@@ -12,7 +12,6 @@ from boards import protocol
 from boards.choices import MessageType
 from boards.models import BoardMessage
 from boards.services import board_post, board_withdraw
-from core.statements import Statement, row_update
 from robots.mapcache import router_for
 from robots.models import Robot
 from robots.router import Router
@@ -171,20 +170,13 @@ def _post(
             robot=robot, version=version, body=body, message=message, posted_at=now
         )
     current.version, current.body, current.message, current.posted_at = version, body, message, now
-    row_update(current, ["version", "body", "message", "posted_at"])  # compiled once
+    current.save(update_fields=["version", "body", "message", "posted_at"])
     return current
 
 
 def _current_plan(robot: Robot) -> RobotPlan | None:
     """The last plan posted for the robot, with its board message."""
-    return _CURRENT_PLAN.first(robot_id=robot.pk)
-
-
-# Every plan posted reads it (a nurse's request among them): compiled once (core.statements).
-_CURRENT_PLAN = Statement(
-    lambda robot_id: RobotPlan.objects.filter(robot_id=robot_id).select_related("message")[:1],
-    robot_id=int,
-)
+    return RobotPlan.objects.filter(robot_id=robot.pk).select_related("message").first()
 
 
 def _may_be_pending(current: RobotPlan | None) -> bool:

@@ -8,7 +8,6 @@ from django.db import IntegrityError, transaction
 from django.db.models import Max
 from django.utils import timezone
 
-from core.statements import row_insert, rows_insert
 from robots.models import Site, Waypoint
 from scheduling.choices import Cause, Priority, StopAction, TaskStatus
 from scheduling.deadlines import due_at_default
@@ -131,8 +130,8 @@ def task_create(
         **what,
         **extra,
     )
-    row_insert(task)  # Task.objects.create, its INSERT built once (core.statements)
-    stops = rows_insert(task_stops_build(task, pickups, dropoffs))
+    task.save(force_insert=True)
+    stops = TaskStop.objects.bulk_create(task_stops_build(task, pickups, dropoffs))
     cause = Cause.SCHEDULE if extra.get("recurring") else Cause.REQUEST
     entry = task_record(task, old="", at=now, cause=cause, user=requester, note=note)
     if due and settings.ALLOCATE_ON_REQUEST:

@@ -54,9 +54,9 @@ from boards.serializers import (
 from building.models import Device
 from building.services import sim_step
 from core.errors import flatten_errors
+from core.overload import heartbeat_interval_spread
 from resources.availability import resource_return_to_service, resource_take_out_of_service
 from robots.badges import BadgeHash, badge_matches
-from robots.cadence import heartbeat_interval_spread
 from robots.choices import REPORTABLE_STATUSES, Presence
 from robots.mapcache import router_for, site_map
 from robots.models import Resource, Robot, Waypoint

@@ -1,5 +1,5 @@
 """A robot idle with its push channel open is told the idle interval (HEARTBEAT_IDLE_INTERVAL,
-robots/cadence.py), over real HTTP: only when it says `push`, is idle with nothing on board and
+boards/services.py), over real HTTP: only when it says `push`, is idle with nothing on board and
 nothing to report, and its answer brings no message; its presence follows the longer
 interval, so it is not flipped for obeying."""
 
@@ -8,7 +8,7 @@ from datetime import timedelta
 import pytest
 
 from boards.services import board_post
-from robots.cadence import cadence_forget
+from robots.selectors import robots_heartbeating_forget
 from robots.services import presence_sweep
 from tests import factories
 
@@ -17,10 +17,10 @@ IDLE = 5
 
 @pytest.fixture(autouse=True)
 def idle_interval(settings):
-    cadence_forget()
+    robots_heartbeating_forget()
     settings.HEARTBEAT_IDLE_INTERVAL = IDLE
     yield
-    cadence_forget()
+    robots_heartbeating_forget()
 
 
 def test_an_idle_robot_with_the_push_channel_is_told_the_idle_interval_and_not_flipped(

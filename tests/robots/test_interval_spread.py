@@ -1,5 +1,5 @@
 """A longer interval than the site's is told so that robots heartbeat spread over it
-(robots.cadence.heartbeat_interval_spread): a robot keeps its phase, so a fleet that heard the
+(core.overload.heartbeat_interval_spread): a robot keeps its phase, so a fleet that heard the
 longer interval within one second would otherwise go on heartbeating within one second of it."""
 
 import math
@@ -8,7 +8,7 @@ from datetime import UTC, datetime, timedelta
 
 import pytest
 
-from robots.cadence import heartbeat_interval_spread
+from core.overload import heartbeat_interval_spread
 
 NOW = datetime(2026, 11, 25, 5, 0, tzinfo=UTC)
 
