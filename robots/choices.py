@@ -46,3 +46,16 @@ class RobotProtocol(models.TextChoices):
 
     HEARTBEAT = "heartbeat", "Heartbeat (protocol v1)"
     VDA5050 = "vda5050", "VDA 5050 over MQTT"
+
+
+class EmergencyKind(models.TextChoices):
+    """A state of the building in which robots stop their ordinary work."""
+
+    FIRE_ALARM = "fire_alarm", "Fire alarm"
+
+
+class EmergencySource(models.TextChoices):
+    """Who started or ended an emergency mode."""
+
+    OPERATOR = "operator", "An operator, on the fleet page"
+    API = "api", "A building management system, over the REST API"

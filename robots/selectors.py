@@ -6,7 +6,7 @@ from django.db.models import QuerySet
 from core.statements import Statement
 from robots.choices import Presence, RobotStatus
 from robots.mapcache import waypoint_by_id
-from robots.models import Alert, Robot, Site, SiteMembership
+from robots.models import Alert, Emergency, Robot, Site, SiteMembership
 
 # Robots reporting these statuses are offered no new tasks.
 UNAVAILABLE_STATUSES = [RobotStatus.ERROR, RobotStatus.PAUSED]
@@ -75,6 +75,17 @@ def sites_all() -> list[Site]:
 def alerts_open() -> QuerySet[Alert]:
     """Open alerts, newest first (lazy: one query when listed)."""
     return Alert.objects.open().select_related("site", "robot")
+
+
+def emergency_active(*, site: Site) -> Emergency | None:
+    """The fire alarm in force at the site, if any."""
+    return Emergency.objects.active().filter(site=site).select_related("started_by").first()
+
+
+def emergencies_active(*, site_ids=None) -> list[Emergency]:
+    """Fire alarms in force, at the sites `site_ids` (None: every site), for the pages."""
+    active = Emergency.objects.active().select_related("site").order_by("site__code")
+    return list(active if site_ids is None else active.filter(site_id__in=site_ids))
 
 
 def fleet_snapshot(*, site: Site) -> list[Robot]:

@@ -1,6 +1,8 @@
 from django.urls import path
 
 from scheduling.views import (
+    FireAlarmAllClearView,
+    FireAlarmView,
     ResourceListView,
     ResourceOutOfServiceView,
     ResourceReturnToServiceView,
@@ -22,5 +24,11 @@ urlpatterns = [
         "sites/<str:site>/resources/<str:code>/return-to-service",
         ResourceReturnToServiceView.as_view(),
         name="resource-return-to-service",
+    ),
+    path("sites/<str:site>/fire-alarm", FireAlarmView.as_view(), name="fire-alarm"),
+    path(
+        "sites/<str:site>/fire-alarm/all-clear",
+        FireAlarmAllClearView.as_view(),
+        name="fire-alarm-all-clear",
     ),
 ]

@@ -349,3 +349,17 @@ class PinForm(forms.Form):
         ):
             self.add_error("pin_again", "The two PINs differ: type the same PIN twice.")
         return cleaned
+
+
+class FireAlarmForm(forms.Form):
+    """An operator starts a fire alarm (on the floors ticked; none: every floor) or ends it."""
+
+    start = forms.TypedChoiceField(
+        choices=[("true", "start"), ("false", "all clear")], coerce=lambda value: value == "true"
+    )
+    floors = forms.MultipleChoiceField(required=False, choices=())
+    reason = forms.CharField(max_length=200, required=False, strip=True)
+
+    def __init__(self, *args, floors=(), **kwargs):
+        super().__init__(*args, **kwargs)
+        self.fields["floors"].choices = list(floors)

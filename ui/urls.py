@@ -25,6 +25,7 @@ urlpatterns = [
     ),
     path("resources/<str:site>/<str:code>/doors", fleet.resource_doors_post, name="resource-doors"),
     path("resources/<str:site>/<str:code>/car", fleet.resource_car_post, name="resource-car"),
+    path("sites/<str:site>/fire-alarm", fleet.fire_alarm_post, name="fire-alarm-page"),
     path("alerts/<int:pk>/acknowledge", fleet.alert_acknowledge_post, name="alert-acknowledge"),
     path("live/<str:site>/state.json", state.state, name="live-state"),
     path("maps/<str:site>/edit", maps.map_editor, name="map-editor"),

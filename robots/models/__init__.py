@@ -1,4 +1,5 @@
 from robots.models.alerts import Alert, AlertKind
+from robots.models.emergency import Emergency
 from robots.models.fleet import (
     HeartbeatCadence,
     PresenceChange,
@@ -14,6 +15,7 @@ __all__ = [
     "Alert",
     "AlertKind",
     "Edge",
+    "Emergency",
     "Floor",
     "HeartbeatCadence",
     "PresenceChange",

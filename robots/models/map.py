@@ -91,6 +91,14 @@ class Site(models.Model):
         help_text="bumped whenever a resource goes out of or back into service; routers key on "
         "it with map_version",
     )
+    # Set while a fire alarm is in force (robots.models.emergency): planning is paused and no
+    # elevator is granted, read from the site row the allocator and the lease controller hold.
+    fire_alarm_since = models.DateTimeField(
+        null=True,
+        blank=True,
+        editable=False,
+        help_text="a fire alarm is in force: nothing is planned and no elevator is granted",
+    )
 
     def __str__(self):
         return self.name or self.code

@@ -30,6 +30,7 @@ from scheduling.services.allocation import (
     task_allocate_with_its_site,
 )
 from scheduling.services.cancellation import TaskChanged, TaskNotCancellable, task_cancel
+from scheduling.services.emergency import EmergencyRefused, emergency_end, emergency_start
 from scheduling.services.events import heartbeat_tasks_apply
 from scheduling.services.faults import heartbeat_fault_check, robot_fault, robot_fault_resolve
 from scheduling.services.operator import (
@@ -45,10 +46,13 @@ from scheduling.services.timeouts import ack_timeout_sweep
 from scheduling.services.unloading import task_move_on, unattended_sweep, unload_timeout_sweep
 
 __all__ = [
+    "EmergencyRefused",
     "TaskChanged",
     "TaskNotCancellable",
     "ack_timeout_sweep",
     "due_sweep",
+    "emergency_end",
+    "emergency_start",
     "heartbeat_fault_check",
     "heartbeat_tasks_apply",
     "recurring_stop",
