@@ -82,12 +82,6 @@ def emergency_active(*, site: Site) -> Emergency | None:
     return Emergency.objects.active().filter(site=site).select_related("started_by").first()
 
 
-def emergencies_active(*, site_ids=None) -> list[Emergency]:
-    """Fire alarms in force, at the sites `site_ids` (None: every site), for the pages."""
-    active = Emergency.objects.active().select_related("site").order_by("site__code")
-    return list(active if site_ids is None else active.filter(site_id__in=site_ids))
-
-
 def fleet_snapshot(*, site: Site) -> list[Robot]:
     """The site's robots by code, in one query (their site set, so the map lookups need none)."""
     robots = list(Robot.objects.filter(site=site).order_by("code"))

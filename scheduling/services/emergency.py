@@ -4,7 +4,10 @@ While it is in force at a site:
 
 * every robot on the floors it covers is told to pause (protocol v1 `action`), so it stops
   where it is; VDA 5050 vehicles get `startPause` from the bridge. A robot an operator had
-  already paused stays as the operator left it;
+  already paused stays as the operator left it. A robot inside a lift, a door or a corridor
+  (`in_resource`) is not stopped there, where it would block the car or a fire door: it is
+  told to pause by its first heartbeat outside (emergency_heartbeat_check), like a robot that
+  reaches a covered floor, or comes back online, while the alarm lasts;
 * no elevator of the site is granted (resources.leases._free reads Site.fire_alarm_since):
   the fire service recalls the cars, robots already inside keep their lease until they leave;
 * nothing is planned (the allocator holds every due task with a reason the pages show); new
@@ -16,7 +19,8 @@ grants the elevators' queues in order, and allocates the held deliveries in thei
 new ETAs. Nothing is cancelled or failed by the alarm, so nothing is lost or done twice.
 
 Lock order, as everywhere in the scheduler: the site's allocation lock first (so no allocation
-is half-way when the flag changes), then robot rows one by one, then resource rows.
+is half-way when the flag changes), then robot rows one by one, then the Emergency row (a
+heartbeat holds its robot's row when it adds the robot to the stopped ones), then resource rows.
 """
 
 from dataclasses import dataclass
@@ -30,7 +34,7 @@ from boards.choices import MessageType
 from boards.services import board_post
 from resources.leases import resource_lock, resource_serve
 from robots.alerts import alert_raise, alerts_close
-from robots.choices import EmergencyKind, ResourceKind
+from robots.choices import EmergencyKind, ResourceKind, RobotStatus
 from robots.mapcache import floor_code_by_id, site_map
 from robots.models import AlertKind, Emergency, Resource, Robot, Site
 from robots.selectors import emergency_active
@@ -112,18 +116,42 @@ def emergency_end(*, site: Site, via: str, by=None, now: datetime | None = None)
     allocate the held deliveries; EmergencyRefused if no alarm is in force."""
     now = now or timezone.now()
     site = allocation_lock_take(site.pk)
-    emergency = emergency_active(site=site)
-    if emergency is None:
+    if emergency_active(site=site) is None:
         raise EmergencyRefused(f"No fire alarm is in force at {site}.")
+    # The flag first: a heartbeat that waited for its robot's row stops no robot after this.
+    Site.objects.filter(pk=site.pk).update(fire_alarm_since=None)
+    for robot_id in Robot.objects.filter(site=site).order_by("pk").values_list("pk", flat=True):
+        robot_lock(robot_id)
+    emergency = Emergency.objects.select_for_update().get(pk=emergency_active(site=site).pk)
     emergency.ended_at, emergency.ended_by, emergency.ended_via = now, by, via
     emergency.save(update_fields=["ended_at", "ended_by", "ended_via"])
-    Site.objects.filter(pk=site.pk).update(fire_alarm_since=None)
     resumed = [code for code in emergency.stopped_robots if _resume(site, code, by, now)]
     alerts_close(key=_alert_key(site), by=by, at=now)
     allocated = site_allocate_due(site_id=site.pk, now=now)
     for resource in Resource.objects.filter(site=site, kind=ResourceKind.ELEVATOR).order_by("pk"):
         resource_serve(resource=resource_lock(resource.pk), now=now)
     return EmergencyEnded(emergency=emergency, resumed=resumed, allocated=allocated)
+
+
+def emergency_heartbeat_check(*, applied) -> bool:
+    """Stop a robot that, while a fire alarm is in force, reports itself on a floor it covers
+    and outside any resource, and is not stopped yet; True if told to pause. Robot row locked
+    (a heartbeat's receiver); no query unless an alarm is in force at its site."""
+    robot = applied.robot
+    if robot.site.fire_alarm_since is None or not applied.state_applied:
+        return False
+    if robot.status in (RobotStatus.IN_RESOURCE, RobotStatus.PAUSED) or robot.paused_by_operator:
+        return False
+    emergency = Emergency.objects.active().select_for_update().filter(site=robot.site).first()
+    if emergency is None or robot.code in emergency.stopped_robots:
+        return False
+    if not emergency.covers(floor_code_by_id(robot.site, robot.floor_id)):
+        return False
+    emergency.stopped_robots = [*emergency.stopped_robots, robot.code]
+    emergency.save(update_fields=["stopped_robots"])
+    _action_post(robot, OperatorActionKind.PAUSE)
+    _tell_tasks(robot, HELD_NOTE, None, applied.now)
+    return True
 
 
 def _floors_checked(site: Site, floors: list[str]) -> list[str]:
@@ -135,8 +163,13 @@ def _floors_checked(site: Site, floors: list[str]) -> list[str]:
 
 
 def _robots_to_stop(site: Site, emergency: Emergency) -> list[Robot]:
-    robots = Robot.objects.filter(site=site).order_by("pk")
-    return [r for r in robots if emergency.covers(floor_code_by_id(site, r.floor_id))]
+    """The robots on its floors, but those inside a resource (they stop once out of it)."""
+    robots = Robot.objects.filter(site=site).exclude(status=RobotStatus.IN_RESOURCE)
+    return [
+        robot
+        for robot in robots.order_by("pk")
+        if emergency.covers(floor_code_by_id(site, robot.floor_id))
+    ]
 
 
 def _stop(robot: Robot, by, now: datetime) -> bool:

@@ -17,7 +17,7 @@ from scheduling.services import (
 from scheduling.services.allocation import HELD_BY_FIRE_ALARM
 from tests import factories
 from tests.factories import lease_acquire, lease_enter
-from tests.scheduling.conftest import request, robot_ready, status
+from tests.scheduling.conftest import Beater, request, robot_ready, status
 
 
 def actions(robot) -> list[str]:
@@ -128,3 +128,31 @@ def test_an_alarm_at_one_site_leaves_the_others_alone(site, r1, operator):
     task = request(site, allocate_now=True)
     assert status(task) == TaskStatus.ASSIGNED
     assert Site.objects.get(pk=site.pk).fire_alarm_since is None
+
+
+def test_a_robot_inside_a_resource_stops_once_out_of_it(site, operator):
+    robot = robot_ready(factories.robot_create(site, "R1"), status="in_resource")
+    alarm = emergency_start(site=site, floors=["1F"], reason="", via="api", by=operator)
+    assert alarm.stopped_robots == []
+    beater = Beater(robot)
+    beater.beat(status="in_resource", waypoint="1F-ELEV-WAIT")
+    assert actions(robot) == []
+
+    reply = beater.beat(status="moving", waypoint="1F-HALL")
+
+    assert [m["action"] for m in reply["messages"] if m["type"] == "action"] == ["pause"]
+    beater.beat(status="moving", waypoint="1F-HALL")
+    assert BoardMessage.objects.filter(robot=robot, type="action").count() == 1
+    alarm.refresh_from_db()
+    assert alarm.stopped_robots == ["R1"]
+    assert emergency_end(site=site, via="api", by=operator).resumed == ["R1"]
+
+
+def test_a_robot_reaching_another_floor_is_stopped_only_on_a_covered_one(site, operator):
+    robot = robot_ready(factories.robot_create(site, "R1"), at="3F-WARD", status="moving")
+    emergency_start(site=site, floors=["2F"], reason="", via="api", by=operator)
+    beater = Beater(robot)
+    beater.beat(status="moving", waypoint="3F-ELEV-WAIT")
+    assert actions(robot) == []
+    beater.beat(status="moving", waypoint="2F-ELEV-WAIT")
+    assert actions(robot) == ["pause"]
