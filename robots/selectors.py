@@ -18,8 +18,9 @@ def robots_for_allocation(*, site: Site) -> list[Robot]:
 
     Online or unreachable, not reporting an error or a pause, not held by an operator (Pause
     or Return to dock, until Resume) nor after a fault (until an operator resolves it), not
-    sent to charge (until charged), and with a reported battery level at or above the site's
-    threshold (a robot that never reported has none).
+    sent to charge (until charged), not in maintenance (until returned to service), and with
+    a reported battery level at or above the site's threshold (a robot that never reported
+    has none).
     """
     robots = _AVAILABLE.all(site_id=site.pk, threshold=site.battery_threshold)
     for robot in robots:
@@ -36,6 +37,7 @@ def available_robots(site_id: int, threshold: float) -> QuerySet[Robot]:
         paused_by_operator=False,
         fault_at__isnull=True,
         sent_to_charge=False,
+        maintenance_since__isnull=True,
         battery__isnull=False,
         battery__gte=threshold,
     ).exclude(status__in=UNAVAILABLE_STATUSES)

@@ -370,3 +370,10 @@ class FireAlarmSerializer(serializers.Serializer):
             "started_via": emergency.started_via,
             "stopped_robots": emergency.stopped_robots,
         }
+
+
+class RobotMaintenanceSerializer(serializers.Serializer):
+    reason = StrictCharField(max_length=200, help_text="why, for the other operators")
+    until = StrictDateTimeField(
+        required=False, allow_null=True, default=None, help_text="returned to service then"
+    )

@@ -6,6 +6,8 @@ from scheduling.views import (
     ResourceListView,
     ResourceOutOfServiceView,
     ResourceReturnToServiceView,
+    RobotMaintenanceView,
+    RobotReturnToServiceView,
     TaskCancelView,
     TaskViewSet,
 )
@@ -24,6 +26,14 @@ urlpatterns = [
         "sites/<str:site>/resources/<str:code>/return-to-service",
         ResourceReturnToServiceView.as_view(),
         name="resource-return-to-service",
+    ),
+    path(
+        "robots/<str:robot>/maintenance", RobotMaintenanceView.as_view(), name="robot-maintenance"
+    ),
+    path(
+        "robots/<str:robot>/return-to-service",
+        RobotReturnToServiceView.as_view(),
+        name="robot-return-to-service",
     ),
     path("sites/<str:site>/fire-alarm", FireAlarmView.as_view(), name="fire-alarm"),
     path(

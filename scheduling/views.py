@@ -8,8 +8,9 @@ from core.access import is_operator
 from core.errors import ErrorSerializer
 from robots.choices import EmergencySource
 from robots.membership import may_see_site
-from robots.models import Resource, Site
+from robots.models import Resource, Robot, Site
 from robots.selectors import emergency_active
+from robots.serializers import RobotSerializer
 from scheduling.choices import TaskStatus
 from scheduling.models import Task
 from scheduling.selectors import task_detail, task_detail_of, task_list
@@ -18,16 +19,20 @@ from scheduling.serializers import (
     FireAlarmStartSerializer,
     ResourceOutOfServiceSerializer,
     ResourceServiceSerializer,
+    RobotMaintenanceSerializer,
     TaskDetailSerializer,
     TaskRequestSerializer,
     TaskSerializer,
 )
 from scheduling.services import (
     EmergencyRefused,
+    MaintenanceRefused,
     TaskNotCancellable,
     emergency_end,
     emergency_start,
     resource_operator_set_service,
+    robot_maintenance_end,
+    robot_maintenance_start,
     task_cancel,
     task_request,
 )
@@ -279,7 +284,61 @@ def _site(request, code: str) -> Site:
     return found
 
 
-def _refusal(refused: EmergencyRefused) -> exceptions.APIException:
+def _refusal(refused: EmergencyRefused | MaintenanceRefused) -> exceptions.APIException:
     if refused.field is not None:
         return exceptions.ValidationError({refused.field: [str(refused)]})
     return Conflict(str(refused))
+
+
+MAINTENANCE_ERRORS = {
+    **ERRORS,
+    404: OpenApiResponse(ErrorSerializer, description="no such robot"),
+    409: OpenApiResponse(ErrorSerializer, description="already in maintenance (or not)"),
+}
+
+
+class RobotMaintenanceView(APIView):
+    """Take a robot out of service for maintenance (an operator's action, recorded)."""
+
+    @extend_schema(
+        operation_id="robot_maintenance_start",
+        summary="Take a robot out of service for maintenance: its tasks not picked up go to "
+        "other robots, what it carries is handed back at the pick-up points",
+        request=RobotMaintenanceSerializer,
+        responses={200: RobotSerializer, **MAINTENANCE_ERRORS},
+        tags=["robots"],
+    )
+    def post(self, request, robot):
+        found = _robot(robot)
+        form = RobotMaintenanceSerializer(data=request.data)
+        form.is_valid(raise_exception=True)
+        try:
+            robot_maintenance_start(robot=found, **form.validated_data, by=request.user)
+        except MaintenanceRefused as refused:
+            raise _refusal(refused) from None
+        return Response(RobotSerializer(_robot(robot)).data)
+
+
+class RobotReturnToServiceView(APIView):
+    """Return a robot from maintenance: it is offered tasks again."""
+
+    @extend_schema(
+        operation_id="robot_maintenance_end",
+        summary="Return a robot from maintenance to service",
+        request=None,
+        responses={200: RobotSerializer, **MAINTENANCE_ERRORS},
+        tags=["robots"],
+    )
+    def post(self, request, robot):
+        try:
+            robot_maintenance_end(robot=_robot(robot), by=request.user)
+        except MaintenanceRefused as refused:
+            raise _refusal(refused) from None
+        return Response(RobotSerializer(_robot(robot)).data)
+
+
+def _robot(code: str) -> Robot:
+    found = Robot.objects.select_related("site", "dock").filter(code=code).first()
+    if found is None:
+        raise exceptions.NotFound(f"no robot {code!r}")
+    return found

@@ -27,11 +27,14 @@ from robots.selectors import emergency_active, fleet_snapshot
 from scheduling.choices import OperatorActionKind, ResourceActionKind
 from scheduling.services import (
     EmergencyRefused,
+    MaintenanceRefused,
     emergency_end,
     emergency_start,
     resource_operator_record,
     resource_operator_set_service,
     robot_action,
+    robot_maintenance_end,
+    robot_maintenance_start,
 )
 from ui.drawing import FloorDrawing, floor_drawing, floors_of
 from ui.forms import (
@@ -40,6 +43,7 @@ from ui.forms import (
     FireAlarmForm,
     ResourceServiceForm,
     RobotActionForm,
+    RobotMaintenanceForm,
 )
 from ui.live.parts import fleet_context, resources_context, robot_context
 from ui.live.payloads import robot_payload
@@ -61,7 +65,8 @@ def fleet(request):
         "floors": floors_of(site=site),
         "drawing": drawing,
         "markers": _markers(drawing, robots),
-        "fire_alarm": emergency_active(site=site),
+        # Read only while the site row says one is in force: the page's queries stay constant.
+        "fire_alarm": emergency_active(site=site) if site.fire_alarm_since else None,
         **fleet_context(site, robots),
         **resources_context(site),
     }
@@ -90,6 +95,31 @@ def robot_action_post(request, code: str):
     robot_action(robot=robot, action=action, by=request.user)
     label = OperatorActionKind(action).label
     messages.success(request, f"{label} sent to {robot.code}.")
+    return redirect("robot-page", code=robot.code)
+
+
+@require_POST
+@operator_required
+def robot_maintenance_post(request, code: str):
+    """An operator takes a robot into maintenance or returns it (the page asked to confirm)."""
+    robot = get_object_or_404(Robot, code=code)
+    site_required(request.user, robot.site_id, f"robot {code!r}")
+    form = RobotMaintenanceForm(request.POST)
+    if not form.is_valid():
+        return _invalid(form.errors)
+    data = form.cleaned_data
+    try:
+        if data["in_service"]:
+            robot_maintenance_end(robot=robot, by=request.user)
+            messages.success(request, f"{robot.code} is back in service.")
+        else:
+            reason, until = data["reason"], data["until"]
+            robot_maintenance_start(robot=robot, reason=reason, until=until, by=request.user)
+            messages.success(request, f"{robot.code} is in maintenance: {reason}.")
+    except MaintenanceRefused as refused:
+        if refused.field is not None:
+            return _invalid({refused.field: [str(refused)]})
+        messages.info(request, str(refused))
     return redirect("robot-page", code=robot.code)
 
 

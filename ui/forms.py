@@ -363,3 +363,21 @@ class FireAlarmForm(forms.Form):
     def __init__(self, *args, floors=(), **kwargs):
         super().__init__(*args, **kwargs)
         self.fields["floors"].choices = list(floors)
+
+
+class RobotMaintenanceForm(forms.Form):
+    """An operator takes a robot out of service for maintenance (with a reason, optionally
+    until a time) or returns it."""
+
+    in_service = forms.TypedChoiceField(
+        choices=[("true", "in service"), ("false", "in maintenance")],
+        coerce=lambda value: value == "true",
+    )
+    reason = forms.CharField(max_length=200, required=False, strip=True)
+    until = forms.DateTimeField(required=False, input_formats=["%Y-%m-%dT%H:%M"])
+
+    def clean(self):
+        cleaned = super().clean()
+        if cleaned.get("in_service") is False and not cleaned.get("reason"):
+            self.add_error("reason", "say why it goes into maintenance")
+        return cleaned

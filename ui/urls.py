@@ -17,6 +17,11 @@ urlpatterns = [
     path("fleet/", fleet.fleet, name="fleet"),
     path("robots/<str:code>/", fleet.robot_page, name="robot-page"),
     path("robots/<str:code>/action", fleet.robot_action_post, name="robot-action"),
+    path(
+        "robots/<str:code>/maintenance",
+        fleet.robot_maintenance_post,
+        name="robot-maintenance-page",
+    ),
     path("leases/<str:lease_id>/release", fleet.lease_release_post, name="lease-release"),
     path(
         "resources/<str:site>/<str:code>/service",

@@ -54,6 +54,11 @@ class Site(models.Model):
         default=UNATTENDED_TO_PICKUP,
         help_text='where it then takes the items: "pickup" (back to the sender) or a station code',
     )
+    stuck_timeout = models.FloatField(
+        default=600.0,
+        validators=POSITIVE,
+        help_text="seconds a robot may report moving without progress before operators are alerted",
+    )
     battery_threshold = models.FloatField(
         default=0.2, help_text="robots below this battery level get no new tasks"
     )

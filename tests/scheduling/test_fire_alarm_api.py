@@ -3,6 +3,7 @@ fleet page: one confirmed action each way; bad input is a 4xx naming the field, 
 nothing; every page of the site shows it."""
 
 import pytest
+from django.core.management import call_command
 from django.test import Client
 
 from boards.models import BoardMessage
@@ -130,3 +131,12 @@ def test_the_page_refuses_an_unknown_floor_naming_it(site, operator):
     assert refused.status_code == 400
     assert "floors" in refused.json()["detail"]
     assert unchanged(site)
+
+
+def test_an_operator_is_issued_a_token_for_it(site, capsys):
+    factories.user_create("fire-panel", "operator")
+    call_command("user_token", "fire-panel")
+    token = capsys.readouterr().out.strip()
+    panel = Client(HTTP_AUTHORIZATION=f"Bearer {token}")
+    assert panel.get(URL).status_code == 200
+    assert panel.get("/api/v1/tasks/").status_code == 403  # nothing else of the API
