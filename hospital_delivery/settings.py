@@ -520,6 +520,8 @@ CELERY_BEAT_SCHEDULE = {
     "scheduling-ack-timeout-sweep": _sweep("scheduling.tasks.ack_timeout_sweep", SWEEP_SECONDS),
     "scheduling-recurring-sweep": _sweep("scheduling.tasks.recurring_sweep", 30),
     "scheduling-unload-timeout-sweep": _sweep("scheduling.tasks.unload_timeout_sweep", 10),
+    # Robots whose maintenance time ended, and robots moving without progress.
+    "scheduling-robot-watch-sweep": _sweep("scheduling.tasks.robot_watch_sweep", 10),
     "webhooks-send-sweep": _sweep("webhooks.tasks.send_sweep", WEBHOOK_SWEEP_SECONDS),
     # Stores the reports' figures of each settled day (reports/rollups.py); cheap when there
     # is nothing new, and at this interval the watchdog sees it run soon after a start.

@@ -545,6 +545,8 @@ def _of_robot(live: list[Lease], robot: Robot) -> Lease | None:
 def _free(resource: Resource, live: list[Lease]) -> int:
     if not resource.in_service:
         return 0  # its waiting robots are held in the queue until it is back
+    if resource.is_elevator and resource.site.fire_alarm_since is not None:
+        return 0  # the fire service has the cars: queued until the all-clear
     return resource.capacity - sum(lease.holds for lease in live)
 
 

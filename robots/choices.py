@@ -58,3 +58,16 @@ class VdaQuirk(models.TextChoices):
         "init_position_after_lift",
         "initPosition at the lift's exit node (it keeps its map otherwise)",
     )
+
+
+class EmergencyKind(models.TextChoices):
+    """A state of the building in which robots stop their ordinary work."""
+
+    FIRE_ALARM = "fire_alarm", "Fire alarm"
+
+
+class EmergencySource(models.TextChoices):
+    """Who started or ended an emergency mode."""
+
+    OPERATOR = "operator", "An operator, on the fleet page"
+    API = "api", "A building management system, over the REST API"

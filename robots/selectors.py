@@ -9,7 +9,7 @@ from django.db.models import QuerySet
 from core.overload import COUNT_SECONDS
 from robots.choices import Presence, RobotStatus
 from robots.mapcache import waypoint_by_id
-from robots.models import Alert, Robot, Site, SiteMembership
+from robots.models import Alert, Emergency, Robot, Site, SiteMembership
 
 # Robots reporting these statuses are offered no new tasks.
 UNAVAILABLE_STATUSES = [RobotStatus.ERROR, RobotStatus.PAUSED]
@@ -21,8 +21,9 @@ def robots_for_allocation(*, site: Site) -> list[Robot]:
 
     Online or unreachable, not reporting an error or a pause, not held by an operator (Pause
     or Return to dock, until Resume) nor after a fault (until an operator resolves it), not
-    sent to charge (until charged), and with a reported battery level at or above the site's
-    threshold (a robot that never reported has none).
+    sent to charge (until charged), not in maintenance (until returned to service), and with
+    a reported battery level at or above the site's threshold (a robot that never reported
+    has none).
     """
     robots = list(available_robots(site.pk, site.battery_threshold).order_by("code"))
     for robot in robots:
@@ -39,6 +40,7 @@ def available_robots(site_id: int, threshold: float) -> QuerySet[Robot]:
         paused_by_operator=False,
         fault_at__isnull=True,
         sent_to_charge=False,
+        maintenance_since__isnull=True,
         battery__isnull=False,
         battery__gte=threshold,
     ).exclude(status__in=UNAVAILABLE_STATUSES)
@@ -88,6 +90,11 @@ def sites_all() -> list[Site]:
 def alerts_open() -> QuerySet[Alert]:
     """Open alerts, newest first (lazy: one query when listed)."""
     return Alert.objects.open().select_related("site", "robot")
+
+
+def emergency_active(*, site: Site) -> Emergency | None:
+    """The fire alarm in force at the site, if any."""
+    return Emergency.objects.active().filter(site=site).select_related("started_by").first()
 
 
 def fleet_snapshot(*, site: Site) -> list[Robot]:

@@ -38,6 +38,9 @@ class RobotSerializer(serializers.ModelSerializer):
             "unreachable_at",
             "offline_at",
             "paused_by_operator",
+            "maintenance_since",
+            "maintenance_until",
+            "maintenance_reason",
             "state",
         ]
         read_only_fields = fields

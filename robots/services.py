@@ -142,6 +142,7 @@ def robot_visible(robot: Robot) -> tuple:
         tuple(robot.errors or ()),
         robot.paused_by_operator,
         robot.fault_at is not None,
+        robot.maintenance_since is not None,
     )
 
 

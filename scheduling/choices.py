@@ -93,4 +93,16 @@ class ResourceActionKind(models.TextChoices):
     SEND_CAR = "send_car", "Send car"
 
 
-OPERATOR_ACTION_CHOICES = [*OperatorActionKind.choices, *ResourceActionKind.choices]
+class MaintenanceActionKind(models.TextChoices):
+    """An operator takes a robot out of service for maintenance, or returns it (or its time
+    ends): scheduling/services/maintenance.py."""
+
+    MAINTENANCE = "maintenance", "Taken into maintenance"
+    RETURNED = "maintenance_end", "Returned from maintenance"
+
+
+OPERATOR_ACTION_CHOICES = [
+    *OperatorActionKind.choices,
+    *ResourceActionKind.choices,
+    *MaintenanceActionKind.choices,
+]

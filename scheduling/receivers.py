@@ -4,6 +4,7 @@ hospital_delivery/extensions.py)."""
 from robots.choices import Presence
 from scheduling import services
 from scheduling.services.charging import robot_battery_check
+from scheduling.services.emergency import emergency_heartbeat_check
 from scheduling.services.etas import heartbeat_progress
 from scheduling.services.plans import plan_restore
 
@@ -17,6 +18,7 @@ def on_heartbeat_applied(*, applied) -> None:
         plan_restore(robot=applied.robot, now=applied.now)
     if applied.state_applied:
         robot_battery_check(robot=applied.robot, now=applied.now)
+    emergency_heartbeat_check(applied=applied)  # out of a lift onto a floor in a fire alarm
 
 
 def on_presence_changed(*, robot, old, new, at) -> None:

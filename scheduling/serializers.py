@@ -319,3 +319,55 @@ class ResourceServiceSerializer(serializers.Serializer):
 
 class ResourceOutOfServiceSerializer(serializers.Serializer):
     reason = StrictCharField(max_length=200, help_text="why, for the operators and the robots")
+
+
+class FireAlarmStartSerializer(serializers.Serializer):
+    floors = serializers.ListField(
+        child=StrictCharField(max_length=32),
+        max_length=200,
+        required=False,
+        default=list,
+        help_text="floor codes of the site it covers; empty or left out: every floor",
+    )
+    reason = StrictCharField(
+        max_length=200, required=False, default="", allow_blank=True, help_text="what raised it"
+    )
+
+
+class FireAlarmSerializer(serializers.Serializer):
+    """The site's fire alarm: `active` false when none is in force (the other fields null)."""
+
+    site = serializers.CharField()
+    active = serializers.BooleanField()
+    floors = serializers.ListField(child=serializers.CharField(), allow_null=True)
+    reason = serializers.CharField(allow_null=True)
+    started_at = serializers.DateTimeField(allow_null=True)
+    started_by = serializers.CharField(allow_null=True)
+    started_via = serializers.CharField(allow_null=True)
+    stopped_robots = serializers.ListField(child=serializers.CharField(), allow_null=True)
+
+    @staticmethod
+    def of(site: Site, emergency) -> dict:
+        if emergency is None:
+            keys = ("floors", "reason", "started_at", "started_by", "started_via")
+            return {"site": site.code, "active": False, "stopped_robots": None} | dict.fromkeys(
+                keys
+            )
+        by = emergency.started_by
+        return {
+            "site": site.code,
+            "active": emergency.ended_at is None,
+            "floors": emergency.floors,
+            "reason": emergency.reason,
+            "started_at": emergency.started_at,
+            "started_by": by.get_username() if by is not None else None,
+            "started_via": emergency.started_via,
+            "stopped_robots": emergency.stopped_robots,
+        }
+
+
+class RobotMaintenanceSerializer(serializers.Serializer):
+    reason = StrictCharField(max_length=200, help_text="why, for the other operators")
+    until = StrictDateTimeField(
+        required=False, allow_null=True, default=None, help_text="returned to service then"
+    )

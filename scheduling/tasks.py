@@ -7,6 +7,7 @@ from django.db import OperationalError
 from core.sweeps import sweep_report
 from scheduling import services
 from scheduling.pending import allocation_pending_free
+from scheduling.services.stuck import stuck_sweep
 
 
 @shared_task(autoretry_for=(OperationalError,), retry_backoff=True, max_retries=5)
@@ -43,3 +44,9 @@ def unload_timeout_sweep() -> None:
 @shared_task(autoretry_for=(OperationalError,), retry_backoff=True, max_retries=5)
 def site_reroute(site_id: int, resource: str = "") -> None:
     services.site_reroute(site_id=site_id)
+
+
+@shared_task
+def robot_watch_sweep() -> None:
+    returned = services.maintenance_due_sweep()
+    sweep_report("robot watch", {"back from maintenance": returned, "stuck": stuck_sweep()})

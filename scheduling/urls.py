@@ -1,9 +1,13 @@
 from django.urls import path
 
 from scheduling.views import (
+    FireAlarmAllClearView,
+    FireAlarmView,
     ResourceListView,
     ResourceOutOfServiceView,
     ResourceReturnToServiceView,
+    RobotMaintenanceView,
+    RobotReturnToServiceView,
     TaskCancelView,
     TaskViewSet,
 )
@@ -22,5 +26,19 @@ urlpatterns = [
         "sites/<str:site>/resources/<str:code>/return-to-service",
         ResourceReturnToServiceView.as_view(),
         name="resource-return-to-service",
+    ),
+    path(
+        "robots/<str:robot>/maintenance", RobotMaintenanceView.as_view(), name="robot-maintenance"
+    ),
+    path(
+        "robots/<str:robot>/return-to-service",
+        RobotReturnToServiceView.as_view(),
+        name="robot-return-to-service",
+    ),
+    path("sites/<str:site>/fire-alarm", FireAlarmView.as_view(), name="fire-alarm"),
+    path(
+        "sites/<str:site>/fire-alarm/all-clear",
+        FireAlarmAllClearView.as_view(),
+        name="fire-alarm-all-clear",
     ),
 ]

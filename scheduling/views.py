@@ -4,21 +4,35 @@ from rest_framework import exceptions, mixins, permissions, status, viewsets
 from rest_framework.response import Response
 from rest_framework.views import APIView
 
+from core.access import is_operator
 from core.errors import ErrorSerializer
-from robots.models import Resource, Site
+from robots.choices import EmergencySource
+from robots.membership import may_see_site
+from robots.models import Resource, Robot, Site
+from robots.selectors import emergency_active
+from robots.serializers import RobotSerializer
 from scheduling.choices import TaskStatus
 from scheduling.models import Task
 from scheduling.selectors import task_detail, task_detail_of, task_list
 from scheduling.serializers import (
+    FireAlarmSerializer,
+    FireAlarmStartSerializer,
     ResourceOutOfServiceSerializer,
     ResourceServiceSerializer,
+    RobotMaintenanceSerializer,
     TaskDetailSerializer,
     TaskRequestSerializer,
     TaskSerializer,
 )
 from scheduling.services import (
+    EmergencyRefused,
+    MaintenanceRefused,
     TaskNotCancellable,
+    emergency_end,
+    emergency_start,
     resource_operator_set_service,
+    robot_maintenance_end,
+    robot_maintenance_start,
     task_cancel,
     task_request,
 )
@@ -187,4 +201,144 @@ def _resource(site: str, code: str) -> Resource:
     found = Resource.objects.select_related("site").filter(site__code=site, code=code).first()
     if found is None:
         raise exceptions.NotFound(f"no resource {code!r} at site {site!r}")
+    return found
+
+
+class IsOperator(permissions.BasePermission):
+    """Operators and staff users (a building management system signs in as an operator)."""
+
+    def has_permission(self, request, view):
+        return is_operator(request.user)
+
+
+FIRE_ALARM_ERRORS = {
+    **ERRORS,
+    403: OpenApiResponse(ErrorSerializer, description="not an operator nor a staff user"),
+    404: OpenApiResponse(ErrorSerializer, description="no such site (or not the user's)"),
+    409: OpenApiResponse(ErrorSerializer, description="already in force (or none in force)"),
+}
+
+
+class FireAlarmView(APIView):
+    """A site's fire alarm: read it, or start it (robots on its floors stop, no lift is
+    granted, deliveries are held until the all-clear)."""
+
+    permission_classes = [IsOperator]
+
+    @extend_schema(
+        operation_id="fire_alarm_read",
+        summary="Whether a fire alarm is in force at the site, and where",
+        responses={200: FireAlarmSerializer, **FIRE_ALARM_ERRORS},
+        tags=["emergencies"],
+    )
+    def get(self, request, site):
+        found = _site(request, site)
+        return Response(FireAlarmSerializer.of(found, emergency_active(site=found)))
+
+    @extend_schema(
+        operation_id="fire_alarm_start",
+        summary="Start a fire alarm on some floors of the site, or all of them",
+        request=FireAlarmStartSerializer,
+        responses={201: FireAlarmSerializer, **FIRE_ALARM_ERRORS},
+        tags=["emergencies"],
+    )
+    def post(self, request, site):
+        found = _site(request, site)
+        form = FireAlarmStartSerializer(data=request.data)
+        form.is_valid(raise_exception=True)
+        try:
+            emergency = emergency_start(
+                site=found, **form.validated_data, via=EmergencySource.API, by=request.user
+            )
+        except EmergencyRefused as refused:
+            raise _refusal(refused) from None
+        data = FireAlarmSerializer.of(found, emergency)
+        return Response(data, status=status.HTTP_201_CREATED)
+
+
+class FireAlarmAllClearView(APIView):
+    """The all-clear: robots resume, lifts are granted again, held deliveries are allocated."""
+
+    permission_classes = [IsOperator]
+
+    @extend_schema(
+        operation_id="fire_alarm_all_clear",
+        summary="End the site's fire alarm",
+        request=None,
+        responses={200: FireAlarmSerializer, **FIRE_ALARM_ERRORS},
+        tags=["emergencies"],
+    )
+    def post(self, request, site):
+        found = _site(request, site)
+        try:
+            ended = emergency_end(site=found, via=EmergencySource.API, by=request.user)
+        except EmergencyRefused as refused:
+            raise _refusal(refused) from None
+        return Response(FireAlarmSerializer.of(found, ended.emergency))
+
+
+def _site(request, code: str) -> Site:
+    found = Site.objects.filter(code=code).first()
+    if found is None or not may_see_site(request.user, found.pk):
+        raise exceptions.NotFound(f"no site {code!r}")
+    return found
+
+
+def _refusal(refused: EmergencyRefused | MaintenanceRefused) -> exceptions.APIException:
+    if refused.field is not None:
+        return exceptions.ValidationError({refused.field: [str(refused)]})
+    return Conflict(str(refused))
+
+
+MAINTENANCE_ERRORS = {
+    **ERRORS,
+    404: OpenApiResponse(ErrorSerializer, description="no such robot"),
+    409: OpenApiResponse(ErrorSerializer, description="already in maintenance (or not)"),
+}
+
+
+class RobotMaintenanceView(APIView):
+    """Take a robot out of service for maintenance (an operator's action, recorded)."""
+
+    @extend_schema(
+        operation_id="robot_maintenance_start",
+        summary="Take a robot out of service for maintenance: its tasks not picked up go to "
+        "other robots, what it carries is handed back at the pick-up points",
+        request=RobotMaintenanceSerializer,
+        responses={200: RobotSerializer, **MAINTENANCE_ERRORS},
+        tags=["robots"],
+    )
+    def post(self, request, robot):
+        found = _robot(robot)
+        form = RobotMaintenanceSerializer(data=request.data)
+        form.is_valid(raise_exception=True)
+        try:
+            robot_maintenance_start(robot=found, **form.validated_data, by=request.user)
+        except MaintenanceRefused as refused:
+            raise _refusal(refused) from None
+        return Response(RobotSerializer(_robot(robot)).data)
+
+
+class RobotReturnToServiceView(APIView):
+    """Return a robot from maintenance: it is offered tasks again."""
+
+    @extend_schema(
+        operation_id="robot_maintenance_end",
+        summary="Return a robot from maintenance to service",
+        request=None,
+        responses={200: RobotSerializer, **MAINTENANCE_ERRORS},
+        tags=["robots"],
+    )
+    def post(self, request, robot):
+        try:
+            robot_maintenance_end(robot=_robot(robot), by=request.user)
+        except MaintenanceRefused as refused:
+            raise _refusal(refused) from None
+        return Response(RobotSerializer(_robot(robot)).data)
+
+
+def _robot(code: str) -> Robot:
+    found = Robot.objects.select_related("site", "dock").filter(code=code).first()
+    if found is None:
+        raise exceptions.NotFound(f"no robot {code!r}")
     return found

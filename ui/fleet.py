@@ -20,17 +20,31 @@ from core.access import member_required, operator_required
 from resources.leases import lease_revoke
 from resources.models import Lease
 from robots.alerts import alert_acknowledge
+from robots.choices import EmergencySource
 from robots.membership import site_required
-from robots.models import Alert, Floor, Resource, Robot, Site
-from robots.selectors import fleet_snapshot
+from robots.models import Alert, AlertKind, Floor, Resource, Robot, Site
+from robots.selectors import emergency_active, fleet_snapshot
 from scheduling.choices import OperatorActionKind, ResourceActionKind
 from scheduling.services import (
+    EmergencyRefused,
+    MaintenanceRefused,
+    emergency_end,
+    emergency_start,
     resource_operator_record,
     resource_operator_set_service,
     robot_action,
+    robot_maintenance_end,
+    robot_maintenance_start,
 )
 from ui.drawing import FloorDrawing, floor_drawing, floors_of
-from ui.forms import CarSendForm, DoorHoldForm, ResourceServiceForm, RobotActionForm
+from ui.forms import (
+    CarSendForm,
+    DoorHoldForm,
+    FireAlarmForm,
+    ResourceServiceForm,
+    RobotActionForm,
+    RobotMaintenanceForm,
+)
 from ui.live.parts import fleet_context, resources_context, robot_context
 from ui.live.payloads import robot_payload
 from ui.selectors import page_site, robot_detail
@@ -51,6 +65,8 @@ def fleet(request):
         "floors": floors_of(site=site),
         "drawing": drawing,
         "markers": _markers(drawing, robots),
+        # Read only while the site row says one is in force: the page's queries stay constant.
+        "fire_alarm": emergency_active(site=site) if site.fire_alarm_since else None,
         **fleet_context(site, robots),
         **resources_context(site),
     }
@@ -79,6 +95,31 @@ def robot_action_post(request, code: str):
     robot_action(robot=robot, action=action, by=request.user)
     label = OperatorActionKind(action).label
     messages.success(request, f"{label} sent to {robot.code}.")
+    return redirect("robot-page", code=robot.code)
+
+
+@require_POST
+@operator_required
+def robot_maintenance_post(request, code: str):
+    """An operator takes a robot into maintenance or returns it (the page asked to confirm)."""
+    robot = get_object_or_404(Robot, code=code)
+    site_required(request.user, robot.site_id, f"robot {code!r}")
+    form = RobotMaintenanceForm(request.POST)
+    if not form.is_valid():
+        return _invalid(form.errors)
+    data = form.cleaned_data
+    try:
+        if data["in_service"]:
+            robot_maintenance_end(robot=robot, by=request.user)
+            messages.success(request, f"{robot.code} is back in service.")
+        else:
+            reason, until = data["reason"], data["until"]
+            robot_maintenance_start(robot=robot, reason=reason, until=until, by=request.user)
+            messages.success(request, f"{robot.code} is in maintenance: {reason}.")
+    except MaintenanceRefused as refused:
+        if refused.field is not None:
+            return _invalid({refused.field: [str(refused)]})
+        messages.info(request, str(refused))
     return redirect("robot-page", code=robot.code)
 
 
@@ -183,10 +224,39 @@ def _back_to_fleet(resource: Resource):
 
 @require_POST
 @operator_required
+def fire_alarm_post(request, site: str):
+    """An operator starts the site's fire alarm or gives the all-clear (the page asked them to
+    confirm, saying what follows)."""
+    found = get_object_or_404(Site, code=site)
+    site_required(request.user, found.pk, f"site {site!r}")
+    form = FireAlarmForm(request.POST, floors=floors_of(site=found))
+    if not form.is_valid():
+        return _invalid(form.errors)
+    data, via = form.cleaned_data, EmergencySource.OPERATOR
+    try:
+        if data["start"]:
+            emergency_start(
+                site=found, floors=data["floors"], reason=data["reason"], via=via, by=request.user
+            )
+            messages.success(request, "Fire alarm started: robots there are stopping.")
+        else:
+            emergency_end(site=found, via=via, by=request.user)
+            messages.success(request, "All clear: robots resume and held deliveries go out.")
+    except EmergencyRefused as refused:
+        if refused.field is not None:
+            return _invalid({refused.field: [str(refused)]})
+        messages.info(request, str(refused))
+    return redirect(f"{reverse('fleet')}?site={found.code}")
+
+
+@require_POST
+@operator_required
 def alert_acknowledge_post(request, pk: int):
     alert = get_object_or_404(Alert, pk=pk)
     site_required(request.user, alert.site_id, "such alert")
-    if not alert_acknowledge(alert=alert, user=request.user):
+    if alert.kind == AlertKind.FIRE_ALARM:
+        messages.info(request, "A fire alarm's notice stays until the all-clear.")
+    elif not alert_acknowledge(alert=alert, user=request.user):
         messages.info(request, "Someone had already acknowledged that alert.")
     back = request.POST.get("next", "")
     safe = url_has_allowed_host_and_scheme(back, {request.get_host()}, request.is_secure())

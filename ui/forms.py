@@ -349,3 +349,35 @@ class PinForm(forms.Form):
         ):
             self.add_error("pin_again", "The two PINs differ: type the same PIN twice.")
         return cleaned
+
+
+class FireAlarmForm(forms.Form):
+    """An operator starts a fire alarm (on the floors ticked; none: every floor) or ends it."""
+
+    start = forms.TypedChoiceField(
+        choices=[("true", "start"), ("false", "all clear")], coerce=lambda value: value == "true"
+    )
+    floors = forms.MultipleChoiceField(required=False, choices=())
+    reason = forms.CharField(max_length=200, required=False, strip=True)
+
+    def __init__(self, *args, floors=(), **kwargs):
+        super().__init__(*args, **kwargs)
+        self.fields["floors"].choices = list(floors)
+
+
+class RobotMaintenanceForm(forms.Form):
+    """An operator takes a robot out of service for maintenance (with a reason, optionally
+    until a time) or returns it."""
+
+    in_service = forms.TypedChoiceField(
+        choices=[("true", "in service"), ("false", "in maintenance")],
+        coerce=lambda value: value == "true",
+    )
+    reason = forms.CharField(max_length=200, required=False, strip=True)
+    until = forms.DateTimeField(required=False, input_formats=["%Y-%m-%dT%H:%M"])
+
+    def clean(self):
+        cleaned = super().clean()
+        if cleaned.get("in_service") is False and not cleaned.get("reason"):
+            self.add_error("reason", "say why it goes into maintenance")
+        return cleaned

@@ -17,6 +17,11 @@ urlpatterns = [
     path("fleet/", fleet.fleet, name="fleet"),
     path("robots/<str:code>/", fleet.robot_page, name="robot-page"),
     path("robots/<str:code>/action", fleet.robot_action_post, name="robot-action"),
+    path(
+        "robots/<str:code>/maintenance",
+        fleet.robot_maintenance_post,
+        name="robot-maintenance-page",
+    ),
     path("leases/<str:lease_id>/release", fleet.lease_release_post, name="lease-release"),
     path(
         "resources/<str:site>/<str:code>/service",
@@ -25,6 +30,7 @@ urlpatterns = [
     ),
     path("resources/<str:site>/<str:code>/doors", fleet.resource_doors_post, name="resource-doors"),
     path("resources/<str:site>/<str:code>/car", fleet.resource_car_post, name="resource-car"),
+    path("sites/<str:site>/fire-alarm", fleet.fire_alarm_post, name="fire-alarm-page"),
     path("alerts/<int:pk>/acknowledge", fleet.alert_acknowledge_post, name="alert-acknowledge"),
     path("live/<str:site>/state.json", state.state, name="live-state"),
     path("maps/<str:site>/edit", maps.map_editor, name="map-editor"),

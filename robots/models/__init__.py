@@ -1,4 +1,5 @@
 from robots.models.alerts import Alert, AlertKind
+from robots.models.emergency import Emergency
 from robots.models.fleet import (
     PresenceChange,
     Robot,
@@ -13,6 +14,7 @@ __all__ = [
     "Alert",
     "AlertKind",
     "Edge",
+    "Emergency",
     "Floor",
     "PresenceChange",
     "Resource",

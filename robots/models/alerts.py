@@ -19,6 +19,8 @@ class AlertKind(models.TextChoices):
     UNATTENDED = "unattended", "Robot moved on from a drop-off nobody unloaded"
     DEADLINE_AT_RISK = "deadline_at_risk", "Delivery will be late"
     RESOURCE_OUT_OF_SERVICE = "resource_out_of_service", "Elevator, door or corridor out of service"
+    FIRE_ALARM = "fire_alarm", "Fire alarm: robots stopped, no lift granted, deliveries held"
+    ROBOT_STUCK = "robot_stuck", "Robot reports moving but makes no progress"
 
 
 class AlertQuerySet(models.QuerySet):

@@ -91,6 +91,26 @@ class Robot(models.Model):
         default=False, help_text="sent to its dock to charge: no new tasks until charged"
     )
 
+    # Set when an operator takes the robot out of service for maintenance, cleared when an
+    # operator returns it or maintenance_until passes (scheduling.services.maintenance): no
+    # new tasks meanwhile, whatever it reports.
+    maintenance_since = models.DateTimeField(
+        null=True, blank=True, help_text="in maintenance: no new tasks until returned to service"
+    )
+    maintenance_until = models.DateTimeField(
+        null=True, blank=True, help_text="returned to service at this time, if set"
+    )
+    maintenance_reason = models.CharField(max_length=200, blank=True)
+
+    # When it last made progress: moved (another floor, waypoint, or metre of x or y) or
+    # reported anything but `moving`. A robot `moving` without progress for its site's
+    # stuck_timeout is stuck (scheduling.services.stuck): stuck_since is set once, by the
+    # sweep that alerts the operators, and cleared by its next progress.
+    progress_at = models.DateTimeField(null=True, blank=True)
+    stuck_since = models.DateTimeField(
+        null=True, blank=True, help_text="moving without progress: operators alerted"
+    )
+
     # Learned from the robot's own events (scheduling.services.etas), for its ETAs.
     pace_travel = models.FloatField(
         null=True, blank=True, help_text="its travel times over the map's estimates, as observed"
@@ -114,6 +134,8 @@ class Robot(models.Model):
         "plan_version",
         "errors",
         "reported_at",
+        "progress_at",
+        "stuck_since",
     ]
     PRESENCE_FIELDS = ["presence", "last_seen_at", "unreachable_at", "offline_at"]
 
@@ -178,6 +200,8 @@ class Robot(models.Model):
 
     def apply_state(self, state: dict, now: datetime) -> None:
         """Store a validated heartbeat `state` (floor and waypoint resolved to ids)."""
+        if self._progresses(state):
+            self.progress_at, self.stuck_since = now, None
         self.status = state["status"]
         self.floor_id = state["floor_id"]
         self.waypoint_id = state.get("waypoint_id")
@@ -189,6 +213,22 @@ class Robot(models.Model):
         self.plan_version = state["plan_version"]
         self.errors = state.get("errors", [])
         self.reported_at = now
+
+    def _progresses(self, state: dict) -> bool:
+        """Whether `state` is progress over the stored one: it is not `moving` (nor was), or
+        it is elsewhere: whole metres, so a stuck robot's sensor noise is no progress."""
+        if state["status"] != RobotStatus.MOVING or self.status != RobotStatus.MOVING:
+            return True
+        where = (
+            state["floor_id"],
+            state.get("waypoint_id"),
+            *_metres(state.get("x"), state.get("y")),
+        )
+        return where != (self.floor_id, self.waypoint_id, *_metres(self.x, self.y))
+
+
+def _metres(*values: float | None) -> tuple:
+    return tuple(None if value is None else round(value) for value in values)
 
 
 class RobotBoot(models.Model):

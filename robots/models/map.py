@@ -54,6 +54,11 @@ class Site(models.Model):
         default=UNATTENDED_TO_PICKUP,
         help_text='where it then takes the items: "pickup" (back to the sender) or a station code',
     )
+    stuck_timeout = models.FloatField(
+        default=600.0,
+        validators=POSITIVE,
+        help_text="seconds a robot may report moving without progress before operators are alerted",
+    )
     battery_threshold = models.FloatField(
         default=0.2, help_text="robots below this battery level get no new tasks"
     )
@@ -90,6 +95,14 @@ class Site(models.Model):
         editable=False,
         help_text="bumped whenever a resource goes out of or back into service; routers key on "
         "it with map_version",
+    )
+    # Set while a fire alarm is in force (robots.models.emergency): planning is paused and no
+    # elevator is granted, read from the site row the allocator and the lease controller hold.
+    fire_alarm_since = models.DateTimeField(
+        null=True,
+        blank=True,
+        editable=False,
+        help_text="a fire alarm is in force: nothing is planned and no elevator is granted",
     )
 
     def __str__(self):

@@ -30,8 +30,15 @@ from scheduling.services.allocation import (
     task_allocate_with_its_site,
 )
 from scheduling.services.cancellation import TaskChanged, TaskNotCancellable, task_cancel
+from scheduling.services.emergency import EmergencyRefused, emergency_end, emergency_start
 from scheduling.services.events import heartbeat_tasks_apply
 from scheduling.services.faults import heartbeat_fault_check, robot_fault, robot_fault_resolve
+from scheduling.services.maintenance import (
+    MaintenanceRefused,
+    maintenance_due_sweep,
+    robot_maintenance_end,
+    robot_maintenance_start,
+)
 from scheduling.services.operator import (
     resource_operator_record,
     resource_operator_set_service,
@@ -45,12 +52,17 @@ from scheduling.services.timeouts import ack_timeout_sweep
 from scheduling.services.unloading import task_move_on, unattended_sweep, unload_timeout_sweep
 
 __all__ = [
+    "EmergencyRefused",
+    "MaintenanceRefused",
     "TaskChanged",
     "TaskNotCancellable",
     "ack_timeout_sweep",
     "due_sweep",
+    "emergency_end",
+    "emergency_start",
     "heartbeat_fault_check",
     "heartbeat_tasks_apply",
+    "maintenance_due_sweep",
     "recurring_stop",
     "recurring_sweep",
     "reroute_enqueue",
@@ -59,6 +71,8 @@ __all__ = [
     "robot_action",
     "robot_fault",
     "robot_fault_resolve",
+    "robot_maintenance_end",
+    "robot_maintenance_start",
     "robot_offline",
     "robot_tasks_give_back",
     "site_allocate_due",

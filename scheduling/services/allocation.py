@@ -55,6 +55,7 @@ NO_SECURE_ROUTE = (
 )
 NO_EMPTY_ROBOT = "no available robot is empty (single-task allocation)"
 NO_BATTERY = "no available robot has the battery to do it and get back to its dock"
+HELD_BY_FIRE_ALARM = "held: a fire alarm is in force; it is allocated at the all-clear"
 
 
 def task_allocate(*, task_id: int, now: datetime | None = None) -> bool:
@@ -117,6 +118,8 @@ def site_allocate_due(*, site_id: int, now: datetime | None = None) -> int:
         tasks = _due_tasks(site_id)
         if not tasks:
             return 0
+        if site.fire_alarm_since is not None:
+            return _hold(tasks)
         try:
             with transaction.atomic():  # a savepoint: undone if a chosen robot changed meanwhile
                 batch = _Batch(site, now, lock_late=True)
@@ -346,6 +349,8 @@ def _lock_row(site_id: int, *, wait: bool) -> AllocationLock | None:
 
 @ALLOCATION_SECONDS.time()
 def _allocate(task: Task, site: Site, now: datetime, stops: list[TaskStop] | None = None) -> bool:
+    if site.fire_alarm_since is not None:
+        return _hold([task])
     new = task_stops(task, task.stops.all() if stops is None else stops, site=site, now=now)
     routes = robot_routes(robots=robots_for_allocation(site=site), now=now)
     if task.secure:  # it travels locked: only robots that can lock it away
@@ -459,6 +464,17 @@ def _task_claim(task: Task, robot: Robot, now: datetime, ack_due_at: datetime) -
     for name, value in was.items():
         setattr(task, name, value)
     return False
+
+
+def _hold(tasks: list[Task]) -> int:
+    """Nothing is planned while a fire alarm is in force: the tasks stay due, in their order,
+    saying why (no deadline alert: operators already see the alarm). Returns 0 (assigned)."""
+    held = [task.pk for task in tasks if task.waiting_reason != HELD_BY_FIRE_ALARM]
+    if held:
+        Task.objects.filter(pk__in=held).update(waiting_reason=HELD_BY_FIRE_ALARM)
+    for task in tasks:
+        task.waiting_reason = HELD_BY_FIRE_ALARM
+    return 0
 
 
 def _wait(task: Task, reason: str) -> None:

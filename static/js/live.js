@@ -273,6 +273,11 @@
         const text = "held after a fault: Resume or send it to its dock";
         nodes.push(document.createTextNode(" "), element("span", "badge badge-error", text));
       }
+      if (r.in_maintenance) {
+        const badge = element("span", "badge badge-hold", "in maintenance");
+        badge.dataset.badge = "maintenance";
+        nodes.push(document.createTextNode(" "), badge);
+      }
       if (r.sent_to_charge) {
         const badge = element("span", "badge badge-hold", "sent to charge: no tasks until charged");
         badge.dataset.badge = "charge";

@@ -27,6 +27,7 @@ ROBOT_KEYS = {
     "paused_by_operator",
     "held_after_fault",
     "sent_to_charge",
+    "in_maintenance",
     "last_seen_at",
 }
 

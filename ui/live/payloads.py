@@ -40,6 +40,7 @@ def robot_payload(robot) -> dict:
         "paused_by_operator": robot.paused_by_operator,
         "held_after_fault": robot.fault_at is not None,
         "sent_to_charge": robot.sent_to_charge,
+        "in_maintenance": robot.maintenance_since is not None,
         "last_seen_at": robot.last_seen_at.isoformat() if robot.last_seen_at else None,
     }
 

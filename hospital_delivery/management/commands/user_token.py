@@ -2,7 +2,7 @@ from django.contrib.auth import get_user_model
 from django.core.management.base import BaseCommand, CommandError
 from django.utils import timezone
 
-from core.access import INTEGRATION
+from core.access import INTEGRATION, OPERATOR
 from hospital_delivery.models import ApiToken
 
 
@@ -36,11 +36,12 @@ class Command(BaseCommand):
             deleted, _ = ApiToken.objects.filter(user=user).delete()
             self.stdout.write(f"revoked {username}'s token" if deleted else f"{username} had none")
             return None
-        # The integration group's tokens open the FHIR endpoint only (fhir/, core.access).
-        if not (user.is_staff or user.groups.filter(name=INTEGRATION).exists()):
+        # The integration group's tokens open the FHIR endpoint only (fhir/, core.access); the
+        # operator group's, the fire alarm of their sites (a building management system).
+        if not (user.is_staff or user.groups.filter(name__in=[INTEGRATION, OPERATOR]).exists()):
             raise CommandError(
-                f"{username!r} is neither a staff user nor in the {INTEGRATION} group; "
-                "the API serves only them"
+                f"{username!r} is neither a staff user, in the {INTEGRATION} group nor an "
+                f"{OPERATOR}; the API serves only them"
             )
         self.stdout.write(ApiToken.issue(user))
         return None

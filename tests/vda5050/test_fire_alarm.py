@@ -1,0 +1,45 @@
+"""A VDA 5050 vehicle in a fire alarm: stopped by the instant action startPause, resumed by
+stopPause at the all-clear, as an operator's Pause and Resume."""
+
+import pytest
+from django.db import transaction
+
+from robots.mapcache import router_for, site_map
+from scheduling.services import emergency_end, emergency_start
+from tests.vda5050.conftest import vda_robot_create
+from tests.vda5050.test_link import exchange, state
+from vda5050.link import Link
+
+pytestmark = pytest.mark.django_db
+
+
+@pytest.fixture
+def vehicle(site):
+    return vda_robot_create(site, "V1", "SN-1")
+
+
+@pytest.fixture
+def link(vehicle):
+    return Link(
+        robot_id=vehicle.pk,
+        robot_code=vehicle.code,
+        dock=vehicle.dock.code,
+        site_map=site_map(vehicle.site),
+        router=router_for(vehicle.site),
+    )
+
+
+def test_a_vehicle_on_an_alarm_floor_pauses_and_resumes_at_the_all_clear(link, site, staff):
+    exchange(link, state())  # it reports itself at its dock, on 1F
+    with transaction.atomic():
+        alarm = emergency_start(site=site, floors=["1F"], reason="", via="api", by=staff)
+    assert alarm.stopped_robots == ["V1"]
+    [pause] = exchange(link, state())
+    assert pause.topic == "instantActions"
+    assert [a["actionType"] for a in pause.body["actions"]] == ["startPause"]
+    assert exchange(link, state(paused=True)) == []
+
+    with transaction.atomic():
+        emergency_end(site=site, via="api", by=staff)
+    [resume] = exchange(link, state(paused=True))
+    assert [a["actionType"] for a in resume.body["actions"]] == ["stopPause"]
