@@ -6,7 +6,7 @@ from django.db import migrations, models
 class Migration(migrations.Migration):
 
     dependencies = [
-        ('robots', '0017_heartbeat_cadence'),
+        ('robots', '0018_robot_vda5050_options'),
     ]
 
     operations = [
