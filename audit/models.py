@@ -74,7 +74,9 @@ class AuditEntry(AbstractLogEntry):
     def save(self, *args, **kwargs):
         if not self._state.adding:
             raise EntryNotEditable(f"audit entry #{self.pk} cannot be changed")
-        with transaction.atomic():
+        # No savepoint: an entry is written inside the caller's transaction and goes (or stays)
+        # with it; two statements fewer on every audited action.
+        with transaction.atomic(savepoint=False):
             head = ChainHead.locked()
             self._seal(previous=head.last_hash)
             super().save(*args, **kwargs)

@@ -2,16 +2,35 @@
 hospital_delivery/extensions.py): sign-ins, failed sign-ins, sign-outs, lock-outs, robot tokens.
 """
 
+from django.contrib import messages
 from django.contrib.auth import get_user_model
+from django.utils import timezone
 
 from audit.choices import Kind
+from audit.selectors import sign_ins_of
 from audit.services import entry_record
 
 
 def on_logged_in(sender, request, user, **kwargs) -> None:
-    """django.contrib.auth's user_logged_in: with the backend that checked the password."""
+    """django.contrib.auth's user_logged_in: with the backend that checked the password. The
+    person is told when they last signed in and how often someone failed with their name since,
+    so that a sign-in that was not theirs shows."""
+    if request is not None and hasattr(request, "_messages"):
+        messages.info(request, sign_ins_words(sign_ins_of(user)))
     backend = getattr(user, "backend", "") or ""
     entry_record(kind=Kind.SIGN_IN, obj=user, actor=user, data={"backend": backend})
+
+
+def sign_ins_words(seen) -> str:
+    """The previous sign-in in words, for the person (after signing in) and the admin."""
+    if seen.last_at is None:
+        words = "No earlier sign-in is recorded."
+    else:
+        at = timezone.localtime(seen.last_at).strftime("%Y-%m-%d %H:%M")
+        words = f"Last signed in on {at} from {seen.last_address or 'an unknown address'}."
+    if seen.failures_since:
+        words += f" Failed sign-ins with this user name since: {seen.failures_since}."
+    return words
 
 
 def on_login_failed(sender, credentials=None, request=None, **kwargs) -> None:

@@ -164,3 +164,21 @@ def test_it_records_reads_of_patient_linked_orders_over_fhir_and_on_the_page(sit
     ]
     assert {read.object_repr for read in reads} == {code}
     assert {read.site_id for read in reads} == {site.pk}
+
+
+def test_it_tells_a_person_and_the_admin_the_previous_sign_in_and_failures_since(site, nurse):
+    client, login = Client(), "/accounts/login/"
+    first = client.post(login, {"username": "kim", "password": PASSWORD}, follow=True)
+    client.post("/accounts/logout/")
+    client.post(login, {"username": "kim", "password": "wrong"})
+    again = client.post(login, {"username": "kim", "password": PASSWORD}, follow=True)
+
+    earlier, latest = (timezone.localtime(e.timestamp) for e in entries(Kind.SIGN_IN))
+    assert "No earlier sign-in is recorded." in first.content.decode()
+    assert (
+        f"Last signed in on {earlier:%Y-%m-%d %H:%M} from {ADDRESS}. "
+        "Failed sign-ins with this user name since: 1."
+    ) in again.content.decode()
+    root = logged_in(factories.staff_create("root", is_superuser=True))
+    admin_page = root.get(f"/admin/auth/user/{nurse.pk}/change/").content.decode()
+    assert f"Last signed in on {latest:%Y-%m-%d %H:%M} from {ADDRESS}.<" in admin_page
