@@ -100,7 +100,7 @@ def entries_sweep(*, now: datetime) -> int:
     last = old.order_by("id").values("id", "entry_hash", "timestamp").last()
     removed = AuditEntry.objects.filter(id__lte=last["id"])
     first = removed.order_by("id").values("id", "timestamp").first()
-    count = removed._raw_delete(removed.db)
+    count, _by_model = removed.delete()  # one DELETE: nothing refers to entries
     entry_record(
         kind=Kind.RETENTION_SWEEP,
         model=AuditEntry,
