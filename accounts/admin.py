@@ -10,6 +10,8 @@ from django.core.exceptions import ValidationError
 from accounts.choices import Source
 from accounts.models import Account, Workstation
 from accounts.services import account_pin_set, pin_validate
+from audit.receivers import sign_ins_words
+from audit.selectors import sign_ins_of
 
 User = get_user_model()
 
@@ -64,6 +66,17 @@ class HospitalUserAdmin(UserAdmin):
     list_display = [*UserAdmin.list_display, "source"]
     list_filter = [*UserAdmin.list_filter, "account__source"]
     list_select_related = ["account"]
+    readonly_fields = [*UserAdmin.readonly_fields, "sign_ins"]
+
+    def get_fieldsets(self, request, obj=None):
+        fieldsets = super().get_fieldsets(request, obj)
+        if obj is None:
+            return fieldsets
+        return [*fieldsets, ("Sign-ins (audit trail)", {"fields": ["sign_ins"]})]
+
+    @admin.display(description="previous sign-in and failures since")
+    def sign_ins(self, user) -> str:
+        return sign_ins_words(sign_ins_of(user))
 
     @admin.display(description="signs in with", ordering="account__source")
     def source(self, user) -> str:

@@ -16,3 +16,4 @@ class Role(models.TextChoices):
     NURSE = "nurse", "nurse"
     OPERATOR = "operator", "operator"
     ADMIN = "admin", "administrator"
+    AUDITOR = "auditor", "auditor"  # core.access.AUDITOR: reads the audit trail of its sites

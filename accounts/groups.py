@@ -9,7 +9,7 @@ provider's groups claim (`ward-nurses`, `/hospital/ward-nurses`, an Entra ID gro
 Only the first `=` of an entry separates its key, so a DN needs no quoting. Groups are compared
 without case and without the spaces around a DN's commas, as directories compare DNs.
 
-    ROLE_GROUPS   ROLE=GROUP; ROLE is nurse, operator or admin; a role may be listed for
+    ROLE_GROUPS   ROLE=GROUP; ROLE is nurse, operator, admin or auditor; a role may be listed for
                   several groups (any of them gives it).
     SITE_GROUPS   SITE=GROUP (a member of the site) or SITE/STATION=GROUP (a member of the site
                   whose unit is that station, for badge deliveries and workstations).
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 # accounts.choices.Role's values; not imported, as the settings module reads this file before
 # Django is set up.
-ROLES = ("nurse", "operator", "admin")
+ROLES = ("nurse", "operator", "admin", "auditor")
 SLUG = re.compile(r"^[-a-zA-Z0-9_]+$")
 STATION = re.compile(r"^[^\s/=;]+$")
 

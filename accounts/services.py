@@ -58,7 +58,7 @@ def account_sync(*, user, source: str, subject: str, groups, now=None) -> Accoun
 
 def _roles_apply(user, roles: set[str]) -> None:
     managed = set(settings.ROLE_GROUPS)
-    for role in managed & {Role.NURSE, Role.OPERATOR}:
+    for role in managed & {Role.NURSE, Role.OPERATOR, Role.AUDITOR}:
         group, _created = Group.objects.get_or_create(name=role)
         if role in roles:
             user.groups.add(group)

@@ -8,6 +8,10 @@ a user may not do).
 A third group, `integration`, is for hospital systems (the pharmacy's, the laboratory's) that
 order over FHIR (fhir/): they order, read and cancel their own orders at their sites, and open
 no page and operate no robot.
+
+A fourth, `auditor`, reads the audit trail of its sites (audit/) and nothing else: auditors
+are often from outside the wards (information security, the pharmacy's controlled-drugs
+officer), so the role gives no page of the fleet.
 """
 
 from functools import wraps
@@ -19,7 +23,8 @@ NURSE = "nurse"
 OPERATOR = "operator"
 GROUPS = (NURSE, OPERATOR)  # the page groups
 INTEGRATION = "integration"
-ROLES = (*GROUPS, INTEGRATION)
+AUDITOR = "auditor"
+ROLES = (*GROUPS, INTEGRATION, AUDITOR)
 
 
 def roles_of(user) -> frozenset[str]:
@@ -91,6 +96,24 @@ def admin_required(view):
     def guarded(request, *args, **kwargs):
         if not is_admin(request.user):
             raise PermissionDenied("only administrators may manage the site's map")
+        return view(request, *args, **kwargs)
+
+    return guarded
+
+
+def is_auditor(user) -> bool:
+    """May read the audit trail: staff (every site), or in the auditor group (its sites)."""
+    return user.is_authenticated and (user.is_staff or AUDITOR in roles_of(user))
+
+
+def auditor_required(view):
+    """Log in first (redirect), then 403 for anyone but an auditor or an administrator."""
+
+    @login_required
+    @wraps(view)
+    def guarded(request, *args, **kwargs):
+        if not is_auditor(request.user):
+            raise PermissionDenied("only auditors and administrators may read the audit trail")
         return view(request, *args, **kwargs)
 
     return guarded

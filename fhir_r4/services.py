@@ -1,8 +1,12 @@
 """Writes of the FHIR endpoint: an order becomes a delivery (once, however often an interface
 engine retries it), and an order is cancelled by the rules of a nurse's cancel."""
 
+from collections import defaultdict
+
 from django.db import IntegrityError, transaction
 
+from audit.choices import Kind
+from audit.services import entry_record
 from core.access import can_cancel
 from fhir_r4.models import Order
 from fhir_r4.orders import OrderRequest
@@ -81,3 +85,31 @@ def order_cancel(*, user, task: Task, version: int | None, reason: str) -> None:
             raise FhirError.one(422, "business-rule", str(refused), "Task.status") from None
         if reason:
             Order.objects.filter(task_id=task.pk).update(cancel_reason=reason[:200])
+
+
+def orders_read_record(*, tasks, via: str) -> None:
+    """Audit who read the patient-linked orders among `tasks` (those ordered over FHIR, which
+    name a patient): one entry per site and read, naming each delivery."""
+    by_site = defaultdict(list)
+    for task in tasks:
+        if getattr(task, "fhir_order", None) is not None:
+            by_site[task.site_id].append(task)
+    for site_id, read in by_site.items():
+        _read_entry(site_id, read, via)
+
+
+def order_read_record(*, task: Task, via: str) -> None:
+    """Audit a read of one delivery's patient-linked order (the caller found it has one)."""
+    _read_entry(task.site_id, [task], via)
+
+
+def _read_entry(site_id: int, read: list[Task], via: str) -> None:
+    codes = [task.code for task in read]
+    entry_record(
+        kind=Kind.ORDER_READ,
+        obj=read[0] if len(read) == 1 else None,
+        model=Task,
+        site_id=site_id,
+        object_repr=", ".join(codes)[:500],
+        data={"via": via, "tasks": codes},
+    )

@@ -26,7 +26,7 @@ from fhir_r4.selectors import (
     tasks_represented,
     tasks_visible,
 )
-from fhir_r4.services import order_cancel, order_create
+from fhir_r4.services import order_cancel, order_create, orders_read_record
 from fhir_r4.validation import resource_validated
 
 SCHEMA = extend_schema(exclude=True)  # FHIR's own contract: /fhir/r4/metadata
@@ -201,6 +201,7 @@ def _task_answer(request, task, *, status: int = 200, pin: str = "") -> Response
     if request.headers.get("Prefer", "").replace(" ", "") == "return=minimal":
         return Response(status=status, headers=headers)
     resource = task_resource(task)
+    orders_read_record(tasks=[task], via="FHIR read")
     if pin:
         resource["output"] = [*resource.get("output", []), pin_output(pin)]
     return Response(resource, status=status, headers=headers)
@@ -262,6 +263,8 @@ def _bundle(request, resource_type: str, wanted, parts) -> Response:
         if room and start < total:
             page = list(rows[start : start + room])
             entries += [build(row) for row in page]
+            if resource_type == "Task":
+                orders_read_record(tasks=page, via="FHIR search")
             room -= len(page)
         start = max(0, start - total)
     base = request.build_absolute_uri(reverse("fhir-metadata")).rsplit("/metadata", 1)[0]

@@ -8,6 +8,7 @@ reach up, it calls a hook, and the project package, which sits above all of them
 answers.
 """
 
+from axes.signals import user_locked_out
 from celery.signals import task_success
 from django.contrib.auth import get_user_model
 from django.contrib.auth.signals import user_logged_in, user_logged_out, user_login_failed
@@ -15,6 +16,7 @@ from django.db.backends.signals import connection_created
 from django.db.models.signals import m2m_changed, post_delete, post_save
 
 from accounts import languages
+from audit import receivers as audit
 from boards import push
 from boards.hooks import heartbeat_applied
 from building import receivers as building
@@ -42,8 +44,8 @@ def connect() -> None:
     lease_changed.connect(building.on_lease_changed)
     # A resource out of or back in service: routes are planned again (after commit).
     availability_changed.connect(scheduling.on_availability_changed)
-    # A robot's new token closes the push sockets opened with its old one.
-    token_issued.connect(push.robot_sockets_close)
+    # A robot's new token closes the push sockets opened with its old one, and is audited.
+    token_issued.connect(push.robot_sockets_close, audit.on_token_issued)
     # Whatever changed that people can see goes to the site's live pages after commit.
     # Then, for other hospital systems, a task's status change becomes a webhook delivery
     # stored in the same transaction (sent after commit, retried until answered).
@@ -69,6 +71,12 @@ def connect() -> None:
     m2m_changed.connect(
         publish.on_user_groups_changed, sender=user.groups.through, dispatch_uid="ui-live-groups"
     )
+    # Sign-ins, failed sign-ins (whatever the user name), sign-outs and lock-outs go into the
+    # audit trail (audit/receivers.py; model changes come through django-auditlog's own).
+    user_logged_in.connect(audit.on_logged_in, dispatch_uid="audit-login")
+    user_login_failed.connect(audit.on_login_failed, dispatch_uid="audit-login-failed")
+    user_logged_out.connect(audit.on_logged_out, dispatch_uid="audit-logout")
+    user_locked_out.connect(audit.on_locked_out, dispatch_uid="audit-locked-out")
     # Each sweep that finishes records when (the sweeps' watchdog, which /healthz, every page and
     # the metrics read; Celery's own signal).
     task_success.connect(watchdog.sweep_ran, weak=False, dispatch_uid="sweeps-watchdog")

@@ -70,8 +70,12 @@ INSTALLED_APPS = [
     "axes",
     "channels",
     "csp",
+    # django-auditlog records model changes into audit.AuditEntry (AUDITLOG_LOGENTRY_MODEL);
+    # before audit, whose admin replaces auditlog's.
+    "auditlog",
     # Components, lowest layer first (pyproject.toml, [tool.importlinter]).
     "robots",
+    "audit",
     "boards",
     "resources",
     "building",
@@ -97,6 +101,8 @@ MIDDLEWARE = [
     "django.contrib.auth.middleware.AuthenticationMiddleware",
     # A signed-in person's own language wins over their browser's.
     "accounts.languages.PreferredLanguageMiddleware",
+    # The actor and client address of the audit entries a request writes (audit/context.py).
+    "audit.middleware.AuditContextMiddleware",
     "django.contrib.messages.middleware.MessageMiddleware",
     "django.middleware.clickjacking.XFrameOptionsMiddleware",
     "core.middleware.CSPMiddleware",  # django-csp's, its policy built once
@@ -234,6 +240,42 @@ SESSION_COOKIE_AGE = SESSION_IDLE_MINUTES * 60
 # An open page's websocket checks that its session and user still may watch the site this often
 # (ui/live/consumers.py), besides at once when the user is changed.
 LIVE_ACCESS_RECHECK_SECONDS = env_int("LIVE_ACCESS_RECHECK_SECONDS", 60, minimum=1)
+
+# The audit trail (audit/, docs/administrators/audit.md). django-auditlog writes its entries of
+# model changes into audit.AuditEntry, which chains them with the events the services record.
+AUDITLOG_LOGENTRY_MODEL = "audit.AuditEntry"
+# The records whose changes are audited, and the fields left out (changed by the system on its
+# own, e.g. at each sign-in) or masked (secrets and their hashes: that they changed is kept).
+AUDITLOG_INCLUDE_TRACKING_MODELS = (
+    {
+        "model": "auth.user",
+        "exclude_fields": ["last_login"],
+        "mask_fields": ["password"],
+        "m2m_fields": {"groups", "user_permissions"},
+    },
+    {"model": "auth.group", "m2m_fields": {"permissions"}},
+    {
+        "model": "robots.sitemembership",
+        "mask_fields": ["badge_salt", "badge_hash"],
+    },
+    {"model": "accounts.account", "exclude_fields": ["synced_at"], "mask_fields": ["pin_hash"]},
+    "accounts.workstation",
+    {"model": "hospital_delivery.apitoken", "mask_fields": ["token_hash"]},
+    {"model": "webhooks.subscription", "mask_fields": ["secret"]},
+    "robots.site",
+    {
+        "model": "robots.resource",
+        # Out of service is an operator's action (audited as one) or a device's fault.
+        "exclude_fields": ["out_of_service_since", "out_of_service_reason"],
+    },
+)
+AUDITLOG_MASK_CALLABLE = "audit.masking.secret_masked"
+# django-auditlog's own migrations create its default entry table, which stays empty here and
+# whose foreign key to the content types would stop the test databases from being flushed.
+MIGRATION_MODULES = {"auditlog": None}
+# Entries older than this many days are removed by a daily sweep, which records what it removed;
+# 0 keeps every entry. HIPAA asks for six years of such records (45 CFR 164.316(b)(2)).
+AUDIT_RETENTION_DAYS = env_int("AUDIT_RETENTION_DAYS", 6 * 366, minimum=0)
 
 LOGIN_URL = "login"
 LOGIN_REDIRECT_URL = "/"
@@ -527,6 +569,9 @@ CELERY_BEAT_SCHEDULE = {
     # is nothing new, and at this interval the watchdog sees it run soon after a start.
     "reports-rollup-sweep": _sweep("reports.tasks.rollup_sweep", 30),
     "building-sweep": _sweep("building.tasks.building_sweep", SWEEP_SECONDS),
+    # Old audit entries (audit/services.py): one indexed read when nothing is due, and at this
+    # interval the watchdog sees it run soon after a start, as the roll-ups.
+    "audit-retention-sweep": _sweep("audit.tasks.retention_sweep", 30),
 }
 
 LOG_LEVEL = env_str("LOG_LEVEL", "INFO")

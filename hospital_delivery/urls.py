@@ -29,4 +29,5 @@ urlpatterns = [
     path("", include("ui.urls")),
     path("", include("reports.urls")),  # /reports/ and /metrics
     path("", include("webhooks.urls")),  # /webhooks/
+    path("", include("audit.urls")),  # /audit/: the auditors' page and its exports
 ]

@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 from django.db import transaction
 from django.utils import timezone
 
+from audit.choices import Kind
+from audit.services import entry_record
 from maps.choices import Rollout
 from maps.diff import MapDiff, map_diff
 from maps.documents import site_document
@@ -195,7 +197,7 @@ def _publish(
         for robot_id in Robot.objects.filter(site=site).order_by("pk").values_list("pk", flat=True):
             robot_lock(robot_id)
         site = Site.objects.get(pk=site.pk)
-        live = site_document(site)
+        live, live_number = site_document(site), site.map_version
         impact = rollout_impact(site=site, diff=map_diff(live, document), now=now)
         if impact.blockers or (impact.cut and rollout == Rollout.REFUSE):
             raise MapBlocked(impact)
@@ -205,7 +207,7 @@ def _publish(
         except SiteFileInvalid as exc:
             raise MapInvalid(exc.problems) from None
         replanned = _replan(impact, now)
-        return MapVersion.objects.create(
+        version = MapVersion.objects.create(
             site=site,
             number=site.map_version,
             document=document,
@@ -215,11 +217,26 @@ def _publish(
             restored_from=restored_from,
             replanned=replanned,
         )
+        _publish_audit(version, live_number=live_number)
+        return version
     except BaseException:
         # This transaction may have cached the new map under a version number that now rolls
         # back and would be reused by the next publication.
         site_map_forget(site.pk)
         raise
+
+
+def _publish_audit(version: MapVersion, *, live_number) -> None:
+    """Who published which map version over which (a roll-back names the version restored)."""
+    entry_record(
+        kind=Kind.MAP_PUBLISHED,
+        obj=version,
+        actor=version.author,
+        site_id=version.site_id,
+        object_repr=f"{version.site.code} map version {version.number}",
+        changes={"map_version": [live_number, version.number]},
+        data={"note": version.note, "restored_from": version.restored_from},
+    )
 
 
 def _replan(impact: Impact, now) -> list[str]:

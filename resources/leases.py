@@ -29,6 +29,8 @@ from statistics import fmean
 from django.db import transaction
 from django.utils import timezone
 
+from audit.choices import Kind
+from audit.services import entry_record
 from boards import protocol
 from boards.choices import RESOURCE_EVENT_TYPES, EventType, MessageType, RequestType
 from boards.models import BoardMessage, RobotEvent, RobotRequest
@@ -172,8 +174,17 @@ def lease_revoke(*, lease: Lease, by=None, now=None) -> list[Lease] | None:
     target = next((each for each in live if each.pk == lease.pk), None)
     if target is None:
         return None
+    before = target.state
     target.end(state=LeaseState.REVOKED, cause=LeaseEndCause.ADMIN, now=now, by=by)
     _save_and_tell(target, resource=resource, fields=END_FIELDS)
+    entry_record(
+        kind=Kind.LEASE_FORCE_RELEASED,
+        obj=target,
+        actor=by,
+        site_id=resource.site_id,
+        object_repr=f"{target.public_id}: {target.robot.code} on {resource.code}",
+        changes={"state": [before, target.state]},
+    )
     for alert in Alert.objects.open().filter(key=_hard_limit_key(target)):
         alert_acknowledge(alert=alert, user=by)
     return _serve(resource, live, now=now)

@@ -3,7 +3,7 @@ open alerts (one query, and only when the page shows them)."""
 
 from django.conf import settings
 
-from core.access import is_member, is_operator
+from core.access import is_auditor, is_member, is_operator
 from core.watchdog import sweeps_overdue
 from robots.membership import member_site_ids
 from robots.selectors import alerts_open
@@ -18,6 +18,7 @@ def pages(request) -> dict:
         "site_time_zone": settings.TIME_ZONE,
         "user_is_member": member,
         "user_is_operator": member and is_operator(user),
+        "user_is_auditor": user is not None and is_auditor(user),
         # A lazy queryset: evaluated (once) only by a template that lists the alerts.
         "open_alerts": _alerts_of(user) if member else (),
         # Called (one Redis read) only by a page that shows it: base.html, for members.

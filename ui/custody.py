@@ -5,6 +5,7 @@ from datetime import date, datetime, time, timedelta
 from django.http import HttpResponse, JsonResponse
 from django.utils import timezone
 
+from audit.services import custody_export_record
 from core.access import operator_required
 from core.csvsafe import csv_writer
 from core.dates import date_out_of_range
@@ -38,11 +39,14 @@ def custody_csv(request):
         return JsonResponse({"error": "invalid", "detail": errors}, status=400)
     start, end = days
     zone = timezone.get_current_timezone()
-    entries = custody_between(
-        site=site,
-        start=datetime.combine(start, time.min, zone),
-        end=datetime.combine(end + timedelta(days=1), time.min, zone),
+    entries = list(
+        custody_between(
+            site=site,
+            start=datetime.combine(start, time.min, zone),
+            end=datetime.combine(end + timedelta(days=1), time.min, zone),
+        )
     )
+    custody_export_record(site=site, start=start, end=end, rows=len(entries))
     response = HttpResponse(content_type="text/csv; charset=utf-8")
     name = f"custody-{site.code}-{start:%Y%m%d}-{end:%Y%m%d}.csv"
     response["Content-Disposition"] = f'attachment; filename="{name}"'

@@ -17,6 +17,7 @@ from django.views.decorators.http import require_POST
 from accounts.workstations import workstation_of
 from core.access import can_cancel, is_member, member_required
 from fhir_r4.selectors import order_for_staff
+from fhir_r4.services import order_read_record
 from robots.membership import site_required
 from robots.models import Site
 from scheduling.deadlines import lateness_note
@@ -108,6 +109,9 @@ def task_history(request, code: str):
     site_required(request.user, task.site_id, f"task {code!r}")
     history = history_in_words(task)
     notice, on_hold = task_disruption(task, given_back_entries(task))
+    order = order_for_staff(task)
+    if order is not None:
+        order_read_record(task=task, via="delivery page")
     context = {
         "page_site": task.site,
         "task": task,
@@ -116,7 +120,7 @@ def task_history(request, code: str):
         "on_hold": on_hold,
         "can_cancel": user_may_cancel(request.user, task),
         # Ordered by a hospital system (FHIR): its order and patient, by identifiers only.
-        "order": order_for_staff(task),
+        "order": order,
     }
     if request.GET.get("partial"):
         return render(request, "scheduling/_task_history.html", context)

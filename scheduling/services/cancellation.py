@@ -5,6 +5,8 @@ from datetime import datetime
 from django.db import transaction
 from django.utils import timezone
 
+from audit.choices import Kind
+from audit.services import entry_record
 from robots.services import robot_lock
 from scheduling.choices import FINISHED_STATUSES, WAITING_STATUSES, Cause, StopAction, TaskStatus
 from scheduling.models import Task, TaskStop
@@ -57,6 +59,19 @@ def _cancel(task_id: int, by, now: datetime, history_count: int | None) -> Task:
         raise TaskNotCancellable(f"{task.code} is {task.get_status_display().lower()}")
     if task.return_trip:
         raise TaskNotCancellable(f"{task.code} is already returning to its pick-up point")
+    before = task.status
+    done = _cancel_as_it_stands(task, by, now)
+    entry_record(
+        kind=Kind.TASK_CANCELLED,
+        obj=done,
+        actor=by,
+        changes={"status": [before, done.status]},
+        data={"return_trip": bool(done.return_trip)},
+    )
+    return done
+
+
+def _cancel_as_it_stands(task: Task, by, now: datetime) -> Task:
     if task.robot is None:
         return _cancel_waiting(task, by, now)
     stops = list(task.stops.select_related("waypoint"))

@@ -19,6 +19,8 @@ from datetime import datetime
 from django.db import transaction
 from django.utils import timezone
 
+from audit.choices import Kind
+from audit.services import entry_record
 from boards import protocol
 from boards.choices import MessageType
 from boards.services import board_post
@@ -61,7 +63,7 @@ def robot_action(*, robot: Robot, action: str, by, now: datetime | None = None) 
         robot.save(update_fields=["paused_by_operator"])
         robot_publish(robot=robot)
     _tell_held_tasks(robot, action, by, now)
-    return OperatorAction.objects.create(robot=robot, action=action, by=by, at=now, message=message)
+    return _action_record(robot=robot, action=action, by=by, at=now, message=message)
 
 
 # What the tasks still on the robot's route record, in their requesters' words.
@@ -97,9 +99,7 @@ def resource_operator_set_service(
         action = ResourceActionKind.OUT_OF_SERVICE
     if not changed:
         return None
-    return OperatorAction.objects.create(
-        resource=resource, action=action, by=by, at=now, note=reason[:200]
-    )
+    return _action_record(resource=resource, action=action, by=by, at=now, note=reason[:200])
 
 
 def resource_operator_record(
@@ -108,6 +108,20 @@ def resource_operator_record(
     """A command of an operator to a lift or door (Hold doors, Let doors go, Send car),
     recorded with who, when and what like the other operator actions; the caller sends the
     command in the same transaction."""
-    return OperatorAction.objects.create(
+    return _action_record(
         resource=resource, action=action, by=by, at=now or timezone.now(), note=note[:200]
     )
+
+
+def _action_record(*, by, **fields) -> OperatorAction:
+    """Store the operator's action and its audit entry, on the robot or resource it acted on."""
+    done = OperatorAction.objects.create(by=by, **fields)
+    target = done.robot or done.resource
+    entry_record(
+        kind=Kind.OPERATOR_ACTION,
+        obj=target,
+        actor=by,
+        object_repr=f"{done.get_action_display()}: {target}",
+        data={"action": done.action, "note": done.note},
+    )
+    return done

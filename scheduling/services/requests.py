@@ -8,6 +8,8 @@ from django.db import IntegrityError, transaction
 from django.db.models import Max
 from django.utils import timezone
 
+from audit.choices import Kind
+from audit.services import entry_record
 from robots.models import Site, Waypoint
 from scheduling.choices import Cause, Priority, StopAction, TaskStatus
 from scheduling.deadlines import due_at_default
@@ -134,6 +136,7 @@ def task_create(
     stops = TaskStop.objects.bulk_create(task_stops_build(task, pickups, dropoffs))
     cause = Cause.SCHEDULE if extra.get("recurring") else Cause.REQUEST
     entry = task_record(task, old="", at=now, cause=cause, user=requester, note=note)
+    _order_audit(task, requester, cause)
     if due and settings.ALLOCATE_ON_REQUEST:
         task_allocate_created(task=task, stops=stops, now=now)
         return task  # its stops and history as the allocation left them: read again to answer
@@ -142,6 +145,24 @@ def task_create(
     if entry.pk is not None:  # stored, not held for later (task_moves_held)
         task_details_known(task, stops=stops, history=[entry])  # as written: the answer's
     return task
+
+
+def _order_audit(task: Task, requester, cause: str) -> None:
+    """Who ordered the delivery: its requester (a nurse, a hospital system), or the recurring
+    schedule acting for one."""
+    by_schedule = cause == Cause.SCHEDULE
+    entry_record(
+        kind=Kind.TASK_ORDERED,
+        obj=task,
+        actor=None if by_schedule else requester,
+        actor_name="recurring schedule" if by_schedule else "",
+        data={
+            "cause": cause,
+            "requester": requester.get_username() if requester else "",
+            "priority": task.priority,
+            "secure": task.secure,
+        },
+    )
 
 
 def task_stops_build(task: Task, pickups: list[Waypoint], dropoffs: list[Waypoint]):

@@ -30,7 +30,7 @@ def test_a_dn_needs_no_quoting_and_compares_as_directories_compare_dns():
         ("nurse", "'nurse' is not KEY=GROUP"),
         ("nurse=", "'nurse=' is not KEY=GROUP"),
         ("=cn=x", "'=cn=x' is not KEY=GROUP"),
-        ("doctor=cn=x", re.escape("'doctor' is not a role (use nurse, operator, admin)")),
+        ("doctor=cn=x", re.escape("'doctor' is not a role (use nurse, operator, admin, auditor)")),
     ],
 )
 def test_role_groups_it_cannot_read_are_refused_naming_the_entry(text, error):
