@@ -139,9 +139,17 @@ def _recoded(old: dict, new: dict, added: set, removed: set) -> dict[str, str]:
     return recoded
 
 
-def _spot(wp: dict) -> tuple[str, str, str]:
-    """Where a waypoint is, as text: an invalid draft may hold anything as x or y."""
-    return wp["floor"], repr(wp.get("x")), repr(wp.get("y"))
+def _spot(wp: dict) -> tuple:
+    """Where a waypoint is: 40, 40.0 and 4e1 are one place (YAML, JSON and the editor write
+    numbers differently); an invalid draft may hold anything as x or y."""
+    return wp["floor"], _comparable(wp.get("x")), _comparable(wp.get("y"))
+
+
+def _comparable(value):
+    """A value as compared: numbers as numbers, anything else as written."""
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return float(value)
+    return repr(value)
 
 
 def _where(wp: dict) -> str:
@@ -196,7 +204,7 @@ def _unique(edges: dict, other: set, how: str):
 
 
 def _shape(edge: dict) -> str:
-    length = "straight" if edge["length"] is None else f"{edge['length']} m"
+    length = "straight" if edge["length"] is None else f"{_number(edge['length'])} m"
     return f"{length}, {'one-way' if edge['oneway'] else 'two-way'}"
 
 
@@ -210,7 +218,28 @@ def _resources(diff: MapDiff, old: dict[str, dict], new: dict[str, dict]) -> Non
         changed = [
             key
             for key in sorted(old[code].keys() | new[code].keys())
-            if old[code].get(key) != new[code].get(key)
+            if _resource_value(key, old[code].get(key)) != _resource_value(key, new[code].get(key))
         ]
         if changed:
             diff.changes.append(Change("resource", "changed", code, ", ".join(changed)))
+
+
+# A resource's lists whose order means nothing: where robots wait, and the edges it guards.
+UNORDERED = {"waiting", "guards"}
+
+
+def _resource_value(key: str, value):
+    if isinstance(value, list) and key in UNORDERED:
+        return frozenset(_resource_value("", item) for item in value)
+    if isinstance(value, list):
+        return tuple(_resource_value("", item) for item in value)
+    if isinstance(value, dict):
+        return frozenset((name, _resource_value("", item)) for name, item in value.items())
+    return _comparable(value)
+
+
+def _number(value):
+    """A length as people write it: 12, not 12.0."""
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value

@@ -9,7 +9,7 @@ one while holding the allocation lock); then the site row, in the loader.
 
 from dataclasses import dataclass, field
 
-from django.db import transaction
+from django.db import IntegrityError, transaction
 from django.utils import timezone
 
 from audit.choices import Kind
@@ -19,6 +19,7 @@ from maps.diff import MapDiff, map_diff
 from maps.documents import site_document
 from maps.impact import Impact, rollout_impact
 from maps.models import MapDraft, MapVersion
+from robots.choices import WaypointKind
 from robots.mapcache import site_map_forget
 from robots.models import Robot, Site
 from robots.services import robot_lock
@@ -157,7 +158,25 @@ def _problems(site: Site, document: dict) -> list[str]:
         _document_of_site(site, document)
     except MapInvalid as exc:
         return exc.problems
-    return site_file_validate(document)
+    return site_file_validate(document) + _unnamed_stations(document)
+
+
+def _unnamed_stations(document: dict) -> list[str]:
+    """A station published without a name would show to nurses as its code."""
+    problems = []
+    floors = document.get("floors")
+    for f, floor in enumerate(floors if isinstance(floors, list) else []):
+        waypoints = floor.get("waypoints") if isinstance(floor, dict) else None
+        for w, wp in enumerate(waypoints if isinstance(waypoints, list) else []):
+            if not isinstance(wp, dict) or wp.get("kind") != WaypointKind.STATION:
+                continue
+            name = wp.get("name")
+            if not (isinstance(name, str) and name.strip()):
+                problems.append(
+                    f"floors[{f}].waypoints[{w}].name: station '{wp.get('code')}' needs a name:"
+                    " nurses find it and see it by its name"
+                )
+    return problems
 
 
 # --- Publishing ---------------------------------------------------------------------------------
@@ -246,6 +265,23 @@ def _replan(impact: Impact, now) -> list[str]:
     for robot in Robot.objects.filter(code__in=codes).order_by("pk"):
         robot_replan(robot=robot_lock(robot.pk), now=now)
     return codes
+
+
+def version_get(*, site: Site, number: int) -> MapVersion:
+    """A published version (MapVersion.DoesNotExist if none). The live map is one from the
+    start: loaded by `load_site`, it is kept as its version the first time it is asked for,
+    so whoever follows the site's map version (the simulated fleet's traffic) finds it."""
+    found = MapVersion.objects.select_related("author").filter(site=site, number=number).first()
+    if found is not None:
+        return found
+    if number != site.map_version:
+        raise MapVersion.DoesNotExist(f"no version {number} of {site.code}'s map")
+    try:
+        with transaction.atomic():
+            _baseline_record(site, site_document(site))
+    except IntegrityError:
+        pass  # kept meanwhile by another request
+    return MapVersion.objects.select_related("author").get(site=site, number=number)
 
 
 def _baseline_record(site: Site, document: dict) -> None:

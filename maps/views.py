@@ -21,6 +21,7 @@ from maps.services import (
     draft_rollout_set,
     draft_save,
     draft_upload,
+    version_get,
     version_restore,
 )
 from robots.models import Site
@@ -148,9 +149,7 @@ class VersionView(MapView):
         responses={200: s.VersionDocumentSerializer, **ERRORS},
     )
     def get(self, request, site, number):
-        version = MapVersion.objects.select_related("author").get(
-            site=self.site(site), number=number
-        )
+        version = version_get(site=self.site(site), number=number)
         return Response({**s.version_wire(version), "document": version.document})
 
 

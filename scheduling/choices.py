@@ -7,8 +7,8 @@ class TaskStatus(models.TextChoices):
 
     SCHEDULED = "scheduled", _("Scheduled")
     DUE = "due", _("Due, waiting for a robot")
-    ASSIGNED = "assigned", _("Assigned (plan posted)")
-    ACKNOWLEDGED = "acknowledged", _("Acknowledged by the robot")
+    ASSIGNED = "assigned", _("Robot chosen")
+    ACKNOWLEDGED = "acknowledged", _("Robot on its way")
     PICKED_UP = "picked_up", _("Picked up")
     DELIVERED = "delivered", _("Delivered")
     COMPLETED = "completed", _("Completed")
@@ -64,9 +64,10 @@ class Cause(models.TextChoices):
     REQUEST = "request", "Requested"
     SCHEDULE = "schedule", "Periodic request"
     SWEEP = "sweep", "Requested time reached"
+    UNLOADING = "unloading", "Nobody unloaded it in time"
     ALLOCATION = "allocation", "Allocated"
     ROBOT_ACK = "robot_ack", "Robot acknowledged its plan"
-    ROBOT_EVENT = "robot_event", "Robot event"
+    ROBOT_EVENT = "robot_event", "Reported by the robot"
     ACK_TIMEOUT = "ack_timeout", "Not acknowledged in time"
     PRESENCE = "presence", "Robot went offline"
     USER = "user", "User"

@@ -1,4 +1,4 @@
-"""The PIN of a secure delivery: shown once to its requester, never stored or sent in clear.
+"""The PIN of a secure delivery: never stored or sent in clear.
 
 The robot must check a PIN at the drop-off even in a Wi-Fi dead zone, so its plan carries a
 salted slow hash (PBKDF2-HMAC-SHA256, a salt and an iteration count of the delivery's own) and
@@ -10,12 +10,21 @@ length and the iterations make that slow (docs/deployment/security.md, "PINs"): 
 (settings.SECURE_PIN_DIGITS) and 600,000 iterations (what OWASP asks of PBKDF2-HMAC-SHA256)
 cost an attacker months of CPU per PIN, and the robot a fraction of a second per attempt.
 Both are within the documented scheme (the plan says the iterations, and the digits too).
+
+The recipient must learn the PIN the way the hospital chooses, so the server also keeps it
+sealed (Fernet: AES-128-CBC with an HMAC-SHA256, from the well-kept `cryptography` package)
+under a key derived from SECRET_KEY: shown again on the delivery's page to its requester and on
+the receiving station's page to its signed-in staff while the delivery is on its way, never in
+a log, a live event or a robot's plan.
 """
 
+import base64
+import hashlib
 import hmac
 import secrets
 from dataclasses import dataclass
 
+from cryptography.fernet import Fernet, InvalidToken
 from django.conf import settings
 
 from core.tokens import secret_digest
@@ -57,3 +66,21 @@ def pin_hash(pin: str, *, salt: str | None = None, iterations: int = ITERATIONS)
 def pin_matches(pin: str, hashed: PinHash) -> bool:
     tried = pin_hash(pin, salt=hashed.salt, iterations=hashed.iterations)
     return hmac.compare_digest(tried.hash, hashed.hash)
+
+
+def pin_seal(pin: str) -> str:
+    return _fernet().encrypt(pin.encode()).decode()
+
+
+def pin_unseal(sealed: str) -> str | None:
+    """The sealed PIN, or None when it cannot be opened (SECRET_KEY changed since)."""
+    try:
+        return _fernet().decrypt(sealed.encode()).decode()
+    except InvalidToken:
+        return None
+
+
+def _fernet() -> Fernet:
+    # A key of its own: the PINs' seal is not the key that signs sessions.
+    key = hashlib.sha256(b"hospital_delivery:secure-delivery-pin:" + settings.SECRET_KEY.encode())
+    return Fernet(base64.urlsafe_b64encode(key.digest()))

@@ -106,7 +106,7 @@ check_ports_free() {
 # Groups nurse and operator, users admin/operator/nurse; passwords generated once into
 # var/demo_logins.json (mode 600) and printed on every start.
 hook_create_demo_users() {
-    python manage.py demo_setup --only users
+    python manage.py demo_setup --only users >/dev/null  # printed last, once the page answers
 }
 
 # HOOK robot tokens: issue API tokens for the simulated robots (e.g. into var/), for the fleet.
@@ -158,17 +158,34 @@ hook_create_demo_users
 hook_issue_robot_tokens
 hook_prepare_fleet
 
-cat >&2 <<EOF
+# The banner once the login page answers through the proxy (not while it still says 502),
+# with the demo logins last, below the processes' start-up lines.
+announce_when_up() {
+    local tries
+    for ((tries = 0; tries < 600; tries++)); do
+        if python -c 'import sys, urllib.request; urllib.request.urlopen(sys.argv[1], timeout=2)' \
+            "http://127.0.0.1:${PORT_HTTP}/accounts/login/" 2>/dev/null; then
+            cat >&2 <<EOF
 
-  hospital_delivery is starting: open http://127.0.0.1:${PORT_HTTP}/
+  hospital_delivery is up: open http://127.0.0.1:${PORT_HTTP}/
   (admin: http://127.0.0.1:${PORT_HTTP}/admin/, API docs: http://127.0.0.1:${PORT_HTTP}/api/docs/,
-   everything through nginx on this one port). Log in with a demo login printed above.
+   everything through nginx on this one port). Requests are logged to var/log/access.log.
   Simulated robots (a share of them VDA 5050 vehicles over MQTT, through the vda5050 bridge)
   drive the site at ${FLEET_SPEEDUP}x real time (a delivery across floors takes
   well under a minute), with ${FLEET_TRAFFIC} random deliveries per simulated hour.
   Ctrl-C stops everything.
 
 EOF
+            python manage.py demo_setup --only users >&2
+            return 0
+        fi
+        sleep 0.5
+    done
+    log "the page did not answer at http://127.0.0.1:${PORT_HTTP}/: see the lines above"
+}
+mkdir -p var/log
+log "starting; the address and the demo logins follow once the page answers"
+announce_when_up &
 # Prometheus counters of every gunicorn and Celery process go to files here, added up by
 # /metrics (prometheus_client's multiprocess mode); a fresh start begins from zero.
 export PROMETHEUS_MULTIPROC_DIR="${PROMETHEUS_MULTIPROC_DIR:-${PWD}/var/prometheus}"

@@ -87,13 +87,14 @@ def deliveries(request):
 
 
 def request_warnings(request, task) -> None:
-    """What the requester must know of a delivery just requested: a secure one's PIN (shown
-    this once: only its hash is kept), and that it will be late."""
+    """What the requester must know of a delivery just requested: a secure one's PIN, and
+    that it will be late."""
     if task.secure:
         messages.warning(
             request,
-            f"PIN for {task.code}: {task.pin_plain}. Give it to the recipient: it "
-            "opens the robot's compartment and is not shown again.",
+            f"PIN for {task.code}: {task.pin_plain}. Give it to the recipient: it opens the "
+            "robot's compartment. You find it again on the delivery's page, and the receiving "
+            "station's staff on their station page, until it is delivered.",
         )
     late = lateness_note(eta=task.eta, due_at=task.due_at)
     if late:
@@ -119,6 +120,8 @@ def task_history(request, code: str):
         "notice": notice,
         "on_hold": on_hold,
         "can_cancel": user_may_cancel(request.user, task),
+        # A secure delivery's PIN, again, to whoever asked for it, until it is handed over.
+        "pin": task.pin_to_hand_on() if request.user.pk == task.requester_id else None,
         # Ordered by a hospital system (FHIR): its order and patient, by identifiers only.
         "order": order,
     }

@@ -1,7 +1,7 @@
 """A floor drawn from the site's cached map, for the fleet page's SVG
 (templates/robots/_floor_map.html)."""
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from robots.choices import WaypointKind
 from robots.mapcache import site_map
@@ -20,6 +20,12 @@ class DrawnWaypoint:
     y: float
     resources: tuple[str, ...] = ()
     anchor: str = "middle"  # of its label: "start" near the left edge, "end" near the right
+    label_y: float | None = None  # its name's baseline from the point; None: not written
+    resources_y: float | None = None  # likewise for the resources it is a waiting area of
+
+    @property
+    def label_x(self) -> float:
+        return {"start": -LABEL_INSET, "end": LABEL_INSET}.get(self.anchor, 0.0)
 
 
 @dataclass(frozen=True)
@@ -89,6 +95,7 @@ def floor_drawing(*, site: Site, floor: str) -> FloorDrawing | None:
         resources = tuple(waiting.get(code, ()))
         anchor = _anchor(x / drawing.width)
         drawing.waypoints.append(DrawnWaypoint(code, wp.label, wp.kind, x, y, resources, anchor))
+    drawing.waypoints[:] = _labels_placed(drawing.waypoints)
     for edge in current.edges:
         if edge.source in points and edge.target in points:
             (x1, y1), (x2, y2) = (
@@ -100,6 +107,56 @@ def floor_drawing(*, site: Site, floor: str) -> FloorDrawing | None:
 
 # Plain waypoints first, so the symbols of stations, docks and waiting areas are drawn on top.
 _KIND_ORDER = {WaypointKind.PLAIN: 0, WaypointKind.RESOURCE_WAIT: 1}
+
+
+# Labels in drawing units (metres), as static/css/app.css draws them (.wp-label: 1.45px).
+LABEL_SIZE = 1.45
+LABEL_CHAR = 0.56 * LABEL_SIZE  # an average character's width in the system's sans-serif
+LABEL_INSET = 1.3  # a label anchored at its start or end begins this far on the other side
+LABEL_ABOVE, LABEL_BELOW = -2.1, 3.2  # baselines from the point
+SYMBOL = 1.4  # half the size of a station's, dock's or waiting area's symbol
+
+
+def _labels_placed(waypoints: list[DrawnWaypoint]) -> list[DrawnWaypoint]:
+    """Each label above its point, else below, where it covers no other label or symbol;
+    one that fits nowhere is left out (the point's tooltip still names it), so labels
+    never run into each other ("RoboRoRobot base dock 4 3")."""
+    taken = [_symbol_box(wp) for wp in waypoints if wp.kind != WaypointKind.PLAIN]
+    placed = []
+    for wp in waypoints:
+        label_y = resources_y = None
+        if wp.kind in (WaypointKind.STATION, WaypointKind.DOCK):
+            label_y = _free_line(wp, wp.label, taken, [LABEL_ABOVE, LABEL_BELOW])
+        if wp.resources:
+            lines = [LABEL_BELOW, LABEL_ABOVE]
+            text = ", ".join(wp.resources)
+            resources_y = _free_line(wp, text, taken, [y for y in lines if y != label_y])
+        placed.append(replace(wp, label_y=label_y, resources_y=resources_y))
+    return placed
+
+
+def _free_line(wp: DrawnWaypoint, text: str, taken: list, baselines: list[float]):
+    for baseline in baselines:
+        box = _text_box(wp, text, baseline)
+        if not any(_overlap(box, other) for other in taken):
+            taken.append(box)
+            return baseline
+    return None
+
+
+def _text_box(wp: DrawnWaypoint, text: str, baseline: float) -> tuple:
+    width = len(text) * LABEL_CHAR
+    left = wp.x + wp.label_x - {"start": 0, "end": width}.get(wp.anchor, width / 2)
+    top = wp.y + baseline - LABEL_SIZE
+    return left, top, left + width, wp.y + baseline + 0.3 * LABEL_SIZE
+
+
+def _symbol_box(wp: DrawnWaypoint) -> tuple:
+    return wp.x - SYMBOL, wp.y - SYMBOL, wp.x + SYMBOL, wp.y + SYMBOL
+
+
+def _overlap(a: tuple, b: tuple) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
 def _anchor(across: float) -> str:

@@ -36,6 +36,18 @@ API_FIELDS = {
     "secure": "secure",
     "non_field_errors": None,
 }
+# The API's terse words for a missing value, said per field as a person would ask for it.
+MISSING = {"This field may not be blank.", "This field is required.", "This list may not be empty."}
+ASK_FOR = {
+    "sender": "Say who sends it: a person or a unit.",
+    "receiver": "Say who it is for: a person or a unit.",
+    "contents": "Say what it carries, e.g. Blood sample.",
+    "pickup": "Choose the station where the robot picks it up.",
+    "dropoff": "Choose the station where the robot takes it.",
+}
+MATCHES_SHOWN = 5  # stations named when what was typed matches several
+IN_THE_PAST = "is in the past"
+PAST_TIME = "That time has passed: choose a later one, or leave the time as shown for now."
 REPEAT_FIELDS = {
     "times": "repeat_times",
     "every_minutes": "repeat_every",
@@ -77,7 +89,7 @@ class DeliveryRequestForm(forms.Form):
 
     site = forms.ChoiceField(label="Site", required=False)
     requested_time = forms.DateTimeField(
-        label="Requested time",
+        label="Collection time",
         required=False,
         widget=DateTimeLocalInput(),
         input_formats=[DATETIME_LOCAL, f"{DATETIME_LOCAL}:%S"],
@@ -110,6 +122,8 @@ class DeliveryRequestForm(forms.Form):
         if len(sites) < 2:
             self.fields["site"].widget = forms.HiddenInput()
         self.station_codes = _station_codes(stations)
+        self.stations = stations
+        self.ambiguous: dict[str, list[str]] = {}  # typed (casefolded) -> the names it matches
         self.stop_values = {name: self._submitted(name) for name in STOPS}
         self.stop_errors: dict[str, dict[int | None, list[str]]] = {name: {} for name in STOPS}
         for name in ("sender", "receiver", "contents"):
@@ -165,9 +179,7 @@ class DeliveryRequestForm(forms.Form):
             "secure": bool(cleaned.get("secure")),
         }
         for name, (api_name, _label) in STOPS.items():
-            data[api_name] = [
-                self.station_codes.get(v.casefold(), v) for v in self.stop_values[name]
-            ]
+            data[api_name] = [self._station_code(value) for value in self.stop_values[name]]
         if cleaned.get("site"):
             data["site"] = cleaned["site"]
         when = cleaned.get("requested_time")
@@ -205,12 +217,39 @@ class DeliveryRequestForm(forms.Form):
             else:
                 self._error(API_FIELDS.get(key), problems)
 
+    def _station_code(self, typed: str) -> str:
+        """The code of the station `typed` names: its name or code, else the one station whose
+        name or code holds it ("Ward 6A", "lab"); what was typed if none or several do."""
+        found = self.station_codes.get(typed.casefold())
+        if found is not None or not typed:
+            return found or typed
+        part = typed.casefold()
+        matches = [
+            (code, name) for code, name in self.stations if part in f"{name} {code}".casefold()
+        ]
+        if len(matches) == 1:
+            return matches[0][0]
+        if matches:
+            self.ambiguous[part] = [name for _code, name in matches]
+        return typed
+
     def _stop_errors(self, name: str, problems) -> None:
         if isinstance(problems, dict):  # by index of the stop
             for index, messages in problems.items():
-                self.stop_errors[name].setdefault(int(index), []).extend(_texts(messages))
+                texts = self._which_station(name, int(index), _in_words(name, _texts(messages)))
+                self.stop_errors[name].setdefault(int(index), []).extend(texts)
         else:
-            self.stop_errors[name].setdefault(None, []).extend(_texts(problems))
+            self.stop_errors[name].setdefault(None, []).extend(_in_words(name, _texts(problems)))
+
+    def _which_station(self, name: str, index: int, texts: list[str]) -> list[str]:
+        """For a stop whose typed words match several stations, which ones."""
+        values = self.stop_values[name]
+        typed = values[index] if index < len(values) else ""
+        names = self.ambiguous.get(typed.casefold())
+        if not names:
+            return texts
+        shown = ", ".join(names[:MATCHES_SHOWN]) + (", …" if len(names) > MATCHES_SHOWN else "")
+        return [f"“{typed}” matches {len(names)} stations ({shown}): type more of the name."]
 
     def _repeat_errors(self, problems) -> None:
         if not isinstance(problems, dict):
@@ -226,7 +265,7 @@ class DeliveryRequestForm(forms.Form):
     def _error(self, field: str | None, problems) -> None:
         if field is not None and field in self.errors:
             return  # the form could not read it, and says so already
-        self.add_error(field, _texts(problems))
+        self.add_error(field, _in_words(field, _texts(problems)))
 
     @property
     def has_stop_errors(self) -> bool:
@@ -241,6 +280,18 @@ def _station_codes(stations: list[tuple[str, str]]) -> dict[str, str]:
     codes = {name: found[0] for name, found in names.items() if len(found) == 1}
     codes.update({code.casefold(): code for code, _name in stations})
     return codes
+
+
+def _in_words(field: str | None, texts: list[str]) -> list[str]:
+    """The API's words, with a missing value asked for and a past time explained."""
+    said = []
+    for text in texts:
+        if text in MISSING and field in ASK_FOR:
+            text = ASK_FOR[field]
+        elif text == IN_THE_PAST and field == "requested_time":
+            text = PAST_TIME
+        said.append(text)
+    return said
 
 
 def _texts(problems) -> list[str]:

@@ -6,10 +6,20 @@ from django.db.models import Q
 from django.utils import timezone
 
 from core.codes import code_pk
-from scheduling.choices import FINISHED_STATUSES, Cause, Priority, StopAction, TaskStatus
-from scheduling.pins import PinHash
+from scheduling.choices import (
+    FINISHED_STATUSES,
+    ROUTE_STATUSES,
+    WAITING_STATUSES,
+    Cause,
+    Priority,
+    StopAction,
+    TaskStatus,
+)
+from scheduling.pins import PinHash, pin_unseal
 
 CODE_PREFIX = "T-"
+# A secure delivery's PIN is shown to those who hand it on until its items are handed over.
+PIN_SHOWN_STATUSES = frozenset([*WAITING_STATUSES, *ROUTE_STATUSES])
 
 
 def task_code(pk: int) -> str:
@@ -75,13 +85,15 @@ class Task(models.Model):
         help_text="when its robot moved on from a drop-off nobody unloaded (a return trip too)",
     )
     # A secure delivery (controlled medication, specimens) travels locked in a compartment
-    # that opens for the recipient's PIN (scheduling/pins.py: only its salted slow hash is
-    # kept) and goes only to robots with a lockable compartment.
+    # that opens for the recipient's PIN (scheduling/pins.py: robots get its salted slow hash;
+    # people who must hand it on see it unsealed) and goes only to robots with a lockable
+    # compartment.
     secure = models.BooleanField(default=False)
     pin_salt = models.CharField(max_length=64, blank=True, editable=False)
     pin_iterations = models.PositiveIntegerField(default=0, editable=False)
     pin_hash = models.CharField(max_length=128, blank=True, editable=False)
     pin_digits = models.PositiveSmallIntegerField(default=0, editable=False)
+    pin_sealed = models.TextField(blank=True, editable=False)
     waiting_reason = models.CharField(
         max_length=200, blank=True, help_text="why no robot took it yet"
     )
@@ -129,6 +141,13 @@ class Task(models.Model):
     @property
     def code(self) -> str:
         return task_code(self.pk)
+
+    def pin_to_hand_on(self) -> str | None:
+        """The PIN in clear while the delivery is on its way (to show to its requester and to
+        the receiving station's staff), else None."""
+        if not (self.secure and self.pin_sealed) or self.status not in PIN_SHOWN_STATUSES:
+            return None
+        return pin_unseal(self.pin_sealed)
 
     @property
     def pin(self):

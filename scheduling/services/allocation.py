@@ -13,6 +13,7 @@ paper); see bench/fleet_day.py.
 """
 
 import logging
+import statistics
 from dataclasses import dataclass, replace
 from datetime import datetime, timedelta
 
@@ -395,6 +396,19 @@ def _candidates(routes: dict[int, HeldRoute]) -> dict[int, HeldRoute]:
     return routes
 
 
+def _at_fleet_pace(routes: dict[int, HeldRoute]):
+    """The routes compared at one pace, the median of those the robots have learned: a pace is
+    learned only by a robot that travels, so the first robot to learn one (much faster than
+    the map's estimate, as in a sped-up simulation) would look faster than every other robot
+    and be given every delivery, and the others would never learn theirs."""
+    learned = [held.robot.pace_travel for held in routes.values()]
+    learned = [pace for pace in learned if pace is not None]
+    if not learned:
+        return {pk: held.route for pk, held in routes.items()}
+    pace = statistics.median(learned)
+    return {pk: replace(held.route, pace=pace) for pk, held in routes.items()}
+
+
 def _why_not(task: Task, routes: dict[int, HeldRoute], candidates: dict[int, HeldRoute]) -> str:
     if not routes:
         return NO_ROBOT
@@ -423,11 +437,12 @@ def _choose(
 ) -> _Choice | None:
     """The best robot for the task; the robot that let it time out last only if no other can."""
     by_code = {held.route.robot: pk for pk, held in routes.items()}
-    others = [h.route for pk, h in routes.items() if pk != task.timed_out_robot_id]
+    compared = _at_fleet_pace(routes)
+    others = [route for pk, route in compared.items() if pk != task.timed_out_robot_id]
     rule = RULES[settings.ALLOCATION_POLICY]
     allocation = rule(new, others, travel_time) if others else None
     if allocation is None and task.timed_out_robot_id in routes:
-        allocation = rule(new, [routes[task.timed_out_robot_id].route], travel_time)
+        allocation = rule(new, [compared[task.timed_out_robot_id]], travel_time)
     if allocation is None:
         return None
     return _Choice(by_code[allocation.robot], allocation.plan.stops)

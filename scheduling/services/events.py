@@ -143,9 +143,7 @@ def _event_apply(beat: _Heartbeat, event: RobotEvent) -> None:
         event_anomaly_record(task=task, event=event, robot=beat.robot, at=beat.now, why=misfit)
         return
     if not _holds(beat, task):
-        held = "not its task" if task.robot_id != beat.robot.pk else f"the task is {task.status}"
-        note = f"{event.type} from {beat.robot.code} ignored: {held}"
-        task_record(task, old=task.status, at=beat.now, note=note, **why)
+        task_record(task, old=task.status, at=beat.now, note=_not_held(beat, task, event), **why)
         return
     acknowledged = task.status == TaskStatus.ASSIGNED
     if acknowledged:  # the robot has it, whether or not its ack of the plan arrived
@@ -154,6 +152,16 @@ def _event_apply(beat: _Heartbeat, event: RobotEvent) -> None:
     if not (moved or acknowledged):
         why.setdefault("note", event.type)
         task_record(task, old=task.status, at=beat.now, **why)
+
+
+def _not_held(beat: _Heartbeat, task: Task, event: RobotEvent) -> str:
+    """The history's note for an event about a task the robot no longer holds."""
+    if task.robot_id != beat.robot.pk:
+        return f"{event.type} from {beat.robot.code} ignored: not its task"
+    if event.type == EventType.TASK_COMPLETED and task.return_trip:
+        # The protocol asks for task_completed once the items are back: expected, not ignored.
+        return f"{beat.robot.code} finished its trip back with the items"
+    return f"{event.type} from {beat.robot.code} ignored: the task is {task.get_status_display()}"
 
 
 def _misfit(beat: _Heartbeat, task: Task, event: RobotEvent) -> str:

@@ -14,7 +14,7 @@ from robots.models import Site, Waypoint
 from scheduling.choices import Cause, Priority, StopAction, TaskStatus
 from scheduling.deadlines import due_at_default
 from scheduling.models import RecurringRequest, Task, TaskStop
-from scheduling.pins import pin_hash, pin_new
+from scheduling.pins import pin_hash, pin_new, pin_seal
 from scheduling.recurrence import next_occurrence, occurrences
 from scheduling.selectors import stations_by_code, task_details_known
 from scheduling.services.allocation import task_allocate_created
@@ -53,8 +53,9 @@ def task_request(
     periodic request and its first instance, which is returned.
 
     It must be dropped off by `due_by`, else by the site's default for its priority. A `secure`
-    one (never periodic: each has its own PIN) gets a new PIN, returned once as task.pin_plain for
-    the requester to hand to the recipient; only its hash is stored.
+    one (never periodic: each has its own PIN) gets a new PIN, returned as task.pin_plain for
+    the requester to hand to the recipient; it is stored hashed for robots and sealed for the
+    pages that show it again (scheduling/pins.py).
     """
     now = now or timezone.now()
     what = {"sender": sender, "receiver": receiver, "contents": contents, "priority": priority}
@@ -89,6 +90,7 @@ def _secure_fields(pin: str) -> dict:
         "pin_iterations": hashed.iterations,
         "pin_hash": hashed.hash,
         "pin_digits": hashed.digits,
+        "pin_sealed": pin_seal(pin),
     }
 
 

@@ -67,9 +67,9 @@ def _stop_overdue(robot: Robot, stop: TaskStop, now: datetime) -> bool:
     if Alert.objects.filter(key=key).exists():  # once per stop, even once acknowledged
         return False
     station = waypoint_by_id(robot.site, stop.waypoint_id)
-    minutes = _minutes(waited)
+    place = station.label if station else "the drop-off"
     words = (
-        f"{robot.code} has waited {minutes} min at {station.label if station else 'the drop-off'} "
+        f"{robot.code} has waited {_duration(waited)} at {place} "
         f"with {task.contents} {task.code}: nobody has unloaded it"
     )
     alert_raise(
@@ -80,7 +80,7 @@ def _stop_overdue(robot: Robot, stop: TaskStop, now: datetime) -> bool:
         robot=robot,
         task=task.code,
     )
-    task_record(task, old=task.status, at=now, cause=Cause.SWEEP, robot=robot, note=words)
+    task_record(task, old=task.status, at=now, cause=Cause.UNLOADING, robot=robot, note=words)
     return True
 
 
@@ -88,8 +88,12 @@ def _alert_key(stop: TaskStop) -> str:
     return f"unload-timeout:{stop.task.code}:{stop.index}"
 
 
-def _minutes(waited: timedelta) -> int:
-    return max(1, round(waited.total_seconds() / 60))
+def _duration(waited: timedelta) -> str:
+    """How long a robot waited, as a person would say it: "40 s", "5 min"."""
+    seconds = round(waited.total_seconds())
+    if seconds < 60:
+        return f"{seconds} s"
+    return f"{round(seconds / 60)} min"
 
 
 def unattended_sweep(*, now: datetime | None = None) -> int:
@@ -133,11 +137,11 @@ def task_move_on(*, robot_id: int, stop_id: int, waited: timedelta, now: datetim
     where = _label(site, stop.waypoint_id, "the drop-off")
     locked = f", locked in compartment {entry.compartment}" if entry.compartment else ""
     words = (
-        f"Nobody unloaded it at {where} in {_minutes(waited)} min: {robot.code} moved on, "
+        f"Nobody unloaded it at {where} in {_duration(waited)}: {robot.code} moved on, "
         f"taking it to {back_to.label}{locked}"
     )
     task.return_trip, task.unattended_at = True, now
-    why = {"cause": Cause.SWEEP, "robot": robot, "note": words}
+    why = {"cause": Cause.UNLOADING, "robot": robot, "note": words}
     task_move(task, TaskStatus.PICKED_UP, at=now, fields=["return_trip", "unattended_at"], **why)
     alerts_close(key=_alert_key(stop), at=now)  # this alert says what became of it
     alert_raise(

@@ -183,12 +183,123 @@
   function replacePart(name, html) {
     document.querySelectorAll(`[data-part="${name}"]`).forEach((element) => {
       const focus = focusKey(element);
-      element.innerHTML = html;
-      restoreFocus(element, focus);
+      const fresh = document.createElement("template");
+      fresh.innerHTML = html;
+      morphChildren(element, fresh.content);
+      if (focus && !element.contains(document.activeElement)) {
+        restoreFocus(element, focus);
+      }
     });
   }
 
-  // A part replaced under the keyboard focus gives it back to the same control of the same row.
+  // --- Morphing a part into its re-read HTML ------------------------------------------------
+  //
+  // A re-read part is patched node by node instead of replaced, so what a person is doing in it
+  // survives live events: the control with the focus stays the same element (its caret and
+  // selection with it), and a value typed or picked but not yet sent is kept.
+
+  const KEY_ATTRIBUTES = ["id", "data-task", "data-robot", "data-alert", "data-resource"];
+
+  function nodeKey(node) {
+    if (node.nodeType !== Node.ELEMENT_NODE) {
+      return null;
+    }
+    const attribute = KEY_ATTRIBUTES.find((name) => node.hasAttribute(name));
+    return attribute ? `${node.nodeName} ${attribute}=${node.getAttribute(attribute)}` : null;
+  }
+
+  function morphChildren(target, source) {
+    const keyed = new Map();
+    target.childNodes.forEach((child) => {
+      const key = nodeKey(child);
+      if (key) {
+        keyed.set(key, child);
+      }
+    });
+    let cursor = target.firstChild;
+    [...source.childNodes].forEach((wanted) => {
+      const key = nodeKey(wanted);
+      let match = key ? keyed.get(key) : null;
+      if (!key && cursor && !nodeKey(cursor) && cursor.nodeName === wanted.nodeName) {
+        match = cursor;
+      }
+      if (!match) {
+        target.insertBefore(wanted, cursor);
+        return;
+      }
+      keyed.delete(key);
+      if (match === cursor) {
+        cursor = cursor.nextSibling;
+      } else {
+        target.insertBefore(match, cursor);
+      }
+      morphNode(match, wanted);
+    });
+    while (cursor) {
+      const next = cursor.nextSibling;
+      cursor.remove();
+      cursor = next;
+    }
+  }
+
+  function morphNode(target, source) {
+    if (target.nodeType !== Node.ELEMENT_NODE) {
+      if (target.nodeValue !== source.nodeValue) {
+        target.nodeValue = source.nodeValue;
+      }
+      return;
+    }
+    const kept = heldInput(target);
+    [...target.attributes].forEach(({ name }) => {
+      if (!source.hasAttribute(name)) {
+        target.removeAttribute(name);
+      }
+    });
+    [...source.attributes].forEach(({ name, value }) => {
+      if (target.getAttribute(name) !== value) {
+        target.setAttribute(name, value);
+      }
+    });
+    morphChildren(target, source);
+    if (kept) {
+      kept();
+    }
+  }
+
+  /** A control being used (focused, or changed and not sent): a function that puts back what
+   * the person typed or picked after the patch; null for any other element. */
+  function heldInput(element) {
+    if (element instanceof HTMLSelectElement) {
+      const picked = [...element.options].map((option) => option.selected);
+      const changed = [...element.options].some((option) => option.selected !== option.defaultSelected);
+      if (!changed && element !== document.activeElement) {
+        return null;
+      }
+      const values = [...element.options].filter((_, index) => picked[index]).map((option) => option.value);
+      return () => [...element.options].forEach((option) => {
+        option.selected = values.includes(option.value);
+      });
+    }
+    if (!(element instanceof HTMLInputElement || element instanceof HTMLTextAreaElement)) {
+      return null;
+    }
+    if (element.type === "checkbox" || element.type === "radio") {
+      const checked = element.checked;
+      return checked === element.defaultChecked ? null : () => (element.checked = checked);
+    }
+    const value = element.value;
+    if (value === element.defaultValue && element !== document.activeElement) {
+      return null;
+    }
+    return () => {
+      if (element.value !== value) {
+        element.value = value;
+      }
+    };
+  }
+
+  // A part patched under the keyboard focus that lost the focused control gives it back to the
+  // same control of the same row.
   const ROW_KEYS = ["task", "robot", "alert", "resource"];
 
   function focusKey(container) {
@@ -206,9 +317,6 @@
   }
 
   function restoreFocus(container, focus) {
-    if (!focus) {
-      return;
-    }
     const row = container.querySelector(`[data-${focus.key}="${CSS.escape(focus.value)}"]`);
     const focusables = row ? [...row.querySelectorAll("a, button, input, select, textarea")] : [];
     (focusables[focus.index] || focusables[0] || container.closest("[tabindex]") || body).focus();

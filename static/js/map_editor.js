@@ -809,12 +809,26 @@
   });
 
   $("editor-reset").addEventListener("click", async () => {
+    const asking =
+      "Discard every edit of the draft, saved or not? The draft becomes the live map again; " +
+      "the edits cannot be brought back.";
+    if (!window.confirm(asking)) {
+      return;
+    }
     const answer = await api(root.dataset.resetUrl, "POST", { revision: draft.revision });
     if (answer.ok) {
       took(answer.data);
       say("The draft is the live map again.");
     } else {
       say(`Not discarded: ${errorsOf(answer.data).join("; ")}`);
+    }
+  });
+
+  // Leaving with edits not yet saved: the browser asks first.
+  window.addEventListener("beforeunload", (event) => {
+    if (dirty) {
+      event.preventDefault();
+      event.returnValue = "";
     }
   });
 

@@ -33,7 +33,7 @@ def test_it_logs_in_with_a_username_and_a_password(open_page, nurse):
 def test_it_orders_a_delivery_by_the_labels_and_shows_it_in_the_schedule(open_page, nurse):
     page = open_page(nurse, "/")
 
-    expect(page.get_by_label("Requested time")).not_to_have_value("")  # now, by default
+    expect(page.get_by_label("Collection time")).not_to_have_value("")  # now, by default
     page.get_by_label("Sender").fill("Nurse Kim, ward 3")
     page.get_by_label("Receiver").fill("Laboratory reception")
     page.get_by_label("Contents").fill("Blood samples")

@@ -74,7 +74,7 @@ def test_a_nurses_eta_changes_live_as_her_robot_reports_progress(
     eta = row.locator('[data-field="eta"] time')
     plan = next(m for m in robot_http.heartbeat(2)["messages"] if m["type"] == "plan")
     robot_http.heartbeat(3, acks=[plan["id"]], state={"plan_version": plan["plan_version"]})
-    expect(row.locator('[data-field="status"]')).to_contain_text("Acknowledged")
+    expect(row.locator('[data-field="status"]')).to_contain_text("Robot on its way")
     expect(rereads).to_have_attribute("data-rereads", "1")  # a new status: re-read
     planned = eta.get_attribute("datetime")
 

@@ -128,3 +128,40 @@ def test_it_moves_a_waypoint_with_the_arrow_keys_at_tablet_width(open_page, staf
     assert (hall["x"], hall["y"]) == (11, 0.1)
     overflow = page.evaluate("document.documentElement.scrollWidth > window.innerWidth")
     assert not overflow, "the editor fits a tablet's width"
+
+
+def test_it_reports_no_change_for_an_untouched_draft_and_guards_the_edits(open_page, staff, site):
+    page = editor(open_page, staff)
+    page.get_by_role("button", name="Check the draft").click()
+    expect(page.locator("#check-changes")).to_have_text("None: the draft is the live map.")
+
+    # A station without a name would reach nurses as its code: Check names the problem.
+    page.locator("#editor-floor").select_option("2F")
+    page.get_by_label("Add waypoint").check()
+    page.locator("#editor-map").click(position={"x": 40, "y": 40})
+    page.locator("#wp-kind").select_option("station")
+    expect(page.locator("#editor-status")).to_have_text("Unsaved changes.")
+
+    # Leaving with unsaved edits asks first; staying keeps them.
+    asked = []
+    page.once("dialog", lambda dialog: (asked.append(dialog.type), dialog.dismiss()))
+    page.evaluate("location.assign('/')")
+    expect(page.locator("#wp-code")).to_have_value("2F-WP-1")
+    assert asked == ["beforeunload"]
+
+    page.get_by_role("button", name="Check the draft").click()
+    expect(page.locator("#check-problems")).to_contain_text("station '2F-WP-1' needs a name")
+
+    # Discarding asks first: dismissed, the draft keeps its edits; accepted, it is the live map.
+    messages = []
+    page.once("dialog", lambda dialog: (messages.append(dialog.message), dialog.dismiss()))
+    page.get_by_role("button", name="Discard the draft’s edits").click()
+    assert "Discard every edit of the draft" in messages[0]
+    assert any(
+        wp["code"] == "2F-WP-1"
+        for floor in MapDraft.objects.get(site=site).document["floors"]
+        for wp in floor["waypoints"]
+    )
+    page.once("dialog", lambda dialog: dialog.accept())
+    page.get_by_role("button", name="Discard the draft’s edits").click()
+    expect(page.locator("#editor-status")).to_have_text("The draft is the live map again.")

@@ -1,5 +1,6 @@
-"""A secure delivery end to end in Chromium: the nurse orders it and sees its PIN once, a robot
-carries it locked, the receiving station's page announces it, the recipient's PIN opens it
+"""A secure delivery end to end in Chromium: the nurse orders it and sees its PIN, again on the
+delivery's page until it is delivered (nobody else does there), a robot carries it locked, the
+receiving station's page announces it with its PIN (never in a live event), the PIN opens it
 (checked on the robot's side, offline), and the history and the CSV show the custody chain.
 Wrong PINs keep another one locked and alert an operator, live."""
 
@@ -49,9 +50,18 @@ def test_a_secure_delivery_from_order_to_custody_record(
     task = Task.objects.get()
     assert task.secure
     page.reload()
-    expect(page.get_by_text(pin)).to_have_count(0)  # shown once
+    expect(page.get_by_text(pin)).to_have_count(0)  # not in the schedule
+    page.goto(f"/deliveries/{task.code}/")
+    expect(page.locator("[data-pin]")).to_have_text(pin)  # the requester's again
+    others = open_page(operator, f"/deliveries/{task.code}/", live=False)
+    expect(others.locator("h1")).to_contain_text(task.code)
+    expect(others.get_by_text(pin)).to_have_count(0)
 
-    station = open_page(nurse, f"/stations/3F-WARD/?site={site.code}")  # the receiving unit
+    station = open_page(operator, f"/stations/3F-WARD/?site={site.code}")  # the receiving unit
+    frames = []
+    station.on("websocket", lambda ws: ws.on("framereceived", lambda frame: frames.append(frame)))
+    station.reload()
+    expect(station.locator("#live-status")).to_have_text("Live")
     station.evaluate("window.notReloaded = true")
     plan = plan_of(bot.heartbeat(2, state=AT_PHARMACY))
     secure = plan["tasks"][task.code]["secure"]
@@ -62,7 +72,7 @@ def test_a_secure_delivery_from_order_to_custody_record(
 
     announcement = station.locator(".announce-here")
     expect(announcement).to_contain_text(
-        f"R1 is at Ward 3 with Morphine 10 mg {task.code}: enter the PIN at the robot"
+        f"R1 is at Ward 3 with Morphine 10 mg {task.code}: enter the PIN {pin} at the robot"
     )
     announced = re.compile(r"^[1-9]\d*$")  # counted (and chimed) as it appeared
     expect(station.locator("[data-station-page]")).to_have_attribute("data-announced", announced)
@@ -75,6 +85,11 @@ def test_a_secure_delivery_from_order_to_custody_record(
     opened = event("unloaded", task.code, 1, compartment="A", opened_with="pin", failed_attempts=1)
     bot.heartbeat(5, state=AT_WARD, events=[opened, event("task_completed", task.code)])
     expect(station.locator(".announce-here")).to_have_count(0)
+    assert frames
+    assert not [frame for frame in frames if pin in str(frame)]
+    page.reload()
+    expect(page.locator("h1")).to_contain_text(task.code)
+    expect(page.get_by_text(pin)).to_have_count(0)  # handed over: not shown any more
 
     history = open_page(nurse, f"/deliveries/{task.code}/")
     custody = history.locator("table.custody")

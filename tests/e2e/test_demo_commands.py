@@ -53,7 +53,7 @@ def test_demo_setup_creates_the_demo_users_once_and_prints_their_logins(demo, tm
     assert all(password in first for password in logins.values())
     users = {user.username: user for user in get_user_model().objects.all()}
     assert users["admin"].is_superuser
-    assert users["operator"].is_staff
+    assert not users["operator"].is_staff  # an operator has no admin and no map editor
     assert users["operator"].groups.filter(name="operator").exists()
     assert not users["nurse"].is_staff
     assert users["nurse"].groups.filter(name="nurse").exists()

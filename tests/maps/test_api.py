@@ -216,3 +216,16 @@ def test_it_checks_a_draft_holding_anything_without_failing(site, admin_client):
     published = post(admin_client, f"{DRAFT}/publish", {"revision": 2})
     assert published.status_code == 400
     assert Site.objects.get(pk=site.pk).map_version == 1
+
+
+def test_it_serves_the_map_load_site_made_as_its_version(admin_client, site):
+    assert not MapVersion.objects.exists()
+
+    first = admin_client.get("/api/v1/maps/tiny/versions/1")
+    again = admin_client.get("/api/v1/maps/tiny/versions/1")
+
+    assert first.status_code == again.status_code == 200, first.content
+    assert first.json()["document"] == site_document(site)
+    assert MapVersion.objects.get().number == 1  # kept once
+    missing = admin_client.get("/api/v1/maps/tiny/versions/2")
+    assert (missing.status_code, missing.json()["error"]) == (404, "not_found")

@@ -48,6 +48,22 @@ def test_operators_are_alerted_once_when_nobody_unloads_past_the_sites_timeout(r
         f"R1 has waited 5 min at Ward 3 with Blood sample {task.code}: nobody has unloaded it"
     )
     assert "nobody has unloaded it" in task.history.last().note
+    assert task.history.last().get_cause_display() == "Nobody unloaded it in time"
+
+
+def test_a_wait_under_a_minute_is_told_in_seconds(r1, site):
+    Site.objects.filter(pk=site.pk).update(unload_timeout=9)
+    task = request(site, dropoffs=("3F-WARD",), contents="Blood sample")
+    task_allocate(task_id=task.pk)
+    beater = Beater(r1)
+    beater.beat(events=[event("loaded", task.code, 0)])
+    at_ward = {"floor": "3F", "waypoint": "3F-WARD", "status": "waiting_unload"}
+    beater.beat(events=[event("arrived", task.code, 1)], **at_ward)
+    arrived = RobotEvent.objects.get(type="arrived").received_at
+
+    assert unload_timeout_sweep(now=arrived + timedelta(seconds=9)) == 1
+
+    assert Alert.objects.get().message.startswith("R1 has waited 9 s at Ward 3")
 
 
 def test_a_robot_unloaded_in_time_raises_nothing(r1, site):
@@ -117,6 +133,9 @@ def test_past_the_unattended_timeout_the_robot_brings_the_items_back_locked(
     beater.beat(events=[back], floor="1F", waypoint="1F-PHARM")
 
     assert status(task) == "failed"  # not delivered, nor cancelled: nobody took it
+    beater.beat(events=[event("task_completed", task.code)], floor="1F", waypoint="1F-PHARM")
+    assert task.history.last().note == f"{locking.code} finished its trip back with the items"
+    assert task.history.filter(cause="unloading").count() == 2  # waited too long, moved on
     kinds = list(task.custody.order_by("pk").values_list("kind", "station"))  # time driven
     assert kinds == [
         ("loaded", "Pharmacy"),

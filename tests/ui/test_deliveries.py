@@ -12,7 +12,7 @@ from tests import factories
 from tests.scheduling.conftest import request
 
 LABELS = [
-    ("id_requested_time", "Requested time"),
+    ("id_requested_time", "Collection time"),
     ("id_sender", "Sender"),
     ("id_receiver", "Receiver"),
     ("id_contents", "Contents"),
@@ -118,8 +118,8 @@ def test_it_shows_errors_next_to_their_fields_and_creates_nothing(nurse_client, 
     response = order(nurse_client, sender="", contents="")
 
     assert response.status_code == 400
-    assert error_of(response, "id_sender") == "This field may not be blank."
-    assert error_of(response, "id_contents") == "This field may not be blank."
+    assert error_of(response, "id_sender") == "Say who sends it: a person or a unit."
+    assert error_of(response, "id_contents") == "Say what it carries, e.g. Blood sample."
     assert not Task.objects.exists()
 
 
@@ -133,7 +133,7 @@ def test_it_shows_every_error_at_once_naming_stations_by_name(nurse_client, site
     )
 
     assert response.status_code == 400
-    assert error_of(response, "id_sender") == "This field may not be blank."
+    assert error_of(response, "id_sender") == "Say who sends it: a person or a unit."
     assert error_of(response, "id_requested_time") == "Enter a valid date/time."
     assert error_of(response, "id_dropoff_2") == "Laboratory is given twice"
     assert error_of(response, "id_dropoff_3") == "Pharmacy is also a pick-up"
@@ -189,7 +189,9 @@ def test_it_refuses_a_requested_time_in_the_past_next_to_it(nurse_client, site):
 
     response = order(nurse_client, requested_time=past, **{"initial-requested_time": "x"})
 
-    assert error_of(response, "id_requested_time") == "is in the past"
+    assert error_of(response, "id_requested_time") == (
+        "That time has passed: choose a later one, or leave the time as shown for now."
+    )
     assert not Task.objects.exists()
 
 
@@ -289,3 +291,20 @@ def test_it_renders_the_deliveries_page_in_constant_queries(
         Task.objects.filter(pk=task.pk).update(robot=robot, status="assigned")
     with django_assert_num_queries(9):
         assert nurse_client.get("/").content.count(b"<tr data-task=") == 11
+
+
+def test_it_takes_a_station_by_a_unique_part_of_its_name(nurse_client, site):
+    order(nurse_client, pickup=["pharm"], dropoff=["ward 3"])
+
+    stops = Task.objects.get().stops.order_by("index")
+    assert [s.waypoint.code for s in stops] == ["1F-PHARM", "3F-WARD"]
+
+
+def test_it_names_the_stations_a_part_of_a_name_matches(nurse_client, site):
+    response = order(nurse_client, pickup=["Laboratory"], dropoff=["ar"])
+
+    assert response.status_code == 400
+    assert error_of(response, "id_dropoff") == (
+        "“ar” matches 2 stations (Pharmacy, Ward 3): type more of the name."
+    )
+    assert not Task.objects.exists()

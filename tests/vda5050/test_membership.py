@@ -9,7 +9,7 @@ import pytest
 from robots.models import Robot
 from robots.sitefile import SiteFileInvalid, site_load
 from tests import factories
-from tests.ui.conftest import nurse_client  # noqa: F401 (a fixture)
+from tests.ui.conftest import nurse_client, operator_client  # noqa: F401 (fixtures)
 
 pytestmark = pytest.mark.django_db
 
@@ -101,13 +101,20 @@ def test_it_refuses_a_robot_declared_wrongly(robots, problem):
     assert not Robot.objects.exists()
 
 
-def test_it_shows_the_protocol_on_the_fleet_page_and_in_the_api(nurse_client, site, client, staff):  # noqa: F811
+def test_it_shows_the_protocol_on_the_fleet_page_and_in_the_api(
+    operator_client,  # noqa: F811
+    nurse_client,  # noqa: F811
+    site,
+    client,
+    staff,
+):
     factories.robot_create(site, "R1")
     factories.robot_create(
         site, "V1", protocol="vda5050", manufacturer="Acme", serial_number="SN-7"
     )
 
-    html = nurse_client.get("/fleet/").content.decode()
+    html = operator_client.get("/fleet/").content.decode()
+    assert 'data-field="protocol"' not in nurse_client.get("/fleet/").content.decode()
     shown = dict(
         re.findall(r'<tr data-robot="(\w+)".*?data-field="protocol"[^>]*>(\w+)<', html, re.S)
     )

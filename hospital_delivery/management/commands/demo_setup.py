@@ -2,9 +2,9 @@
 
 Idempotent; ./scripts/run.sh runs it on every start.
 
-* users: groups `nurse` and `operator`; users `admin` (superuser), `operator` (staff, group
-  operator) and `nurse` (group nurse). Their passwords are generated once, kept in
-  var/demo_logins.json (mode 600) and printed on every run.
+* users: groups `nurse` and `operator`; users `admin` (superuser), `operator` (group operator,
+  not staff: no admin and no map editor, as in a hospital) and `nurse` (group nurse). Their
+  passwords are generated once, kept in var/demo_logins.json (mode 600) and printed on every run.
 * fleet: a new token for every robot of the site, and a new API token for the staff user
   `traffic` (the simulated fleet's request generator), written with the server's URLs and the
   site file to var/fleet.json (mode 600), which `manage.py simulate_fleet` reads. Tokens are
@@ -37,7 +37,7 @@ GROUPS = ("nurse", "operator")
 # username -> (group, staff, superuser, what it is for)
 DEMO_USERS = {
     "admin": (None, True, True, "superuser: /admin/"),
-    "operator": ("operator", True, False, "operator: the fleet, every task, pause/resume"),
+    "operator": ("operator", False, False, "operator: the fleet, every task, pause/resume"),
     "nurse": ("nurse", False, False, "nurse: order deliveries and follow them"),
 }
 TRAFFIC_USER = "traffic"

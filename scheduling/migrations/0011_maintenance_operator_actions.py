@@ -6,7 +6,7 @@ from django.db import migrations, models
 class Migration(migrations.Migration):
 
     dependencies = [
-        ('scheduling', '0008_operator_lift_actions_and_pin_digits'),
+        ('scheduling', '0010_task_words_for_people'),
     ]
 
     operations = [
