@@ -36,10 +36,11 @@ def test_a_vehicle_on_an_alarm_floor_pauses_and_resumes_at_the_all_clear(link, s
     assert alarm.stopped_robots == ["V1"]
     [pause] = exchange(link, state())
     assert pause.topic == "instantActions"
-    assert [a["actionType"] for a in pause.body["actions"]] == ["startPause"]
+    # The bridge asks for the state that confirms it in the same message (stateRequest).
+    assert [a["actionType"] for a in pause.body["actions"]] == ["startPause", "stateRequest"]
     assert exchange(link, state(paused=True)) == []
 
     with transaction.atomic():
         emergency_end(site=site, via="api", by=staff)
     [resume] = exchange(link, state(paused=True))
-    assert [a["actionType"] for a in resume.body["actions"]] == ["stopPause"]
+    assert [a["actionType"] for a in resume.body["actions"]] == ["stopPause", "stateRequest"]
