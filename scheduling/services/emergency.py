@@ -29,6 +29,8 @@ from datetime import datetime
 from django.db import IntegrityError, transaction
 from django.utils import timezone
 
+from audit.choices import Kind
+from audit.services import entry_record
 from boards import protocol
 from boards.choices import MessageType
 from boards.services import board_post
@@ -101,6 +103,7 @@ def emergency_start(
         robot.code for robot in _robots_to_stop(site, emergency) if _stop(robot, by, now)
     ]
     emergency.save(update_fields=["stopped_robots"])
+    _audit(emergency, "fire_alarm", by=by, via=via)
     alert_raise(
         site_id=site.pk,
         kind=AlertKind.FIRE_ALARM,
@@ -126,6 +129,7 @@ def emergency_end(*, site: Site, via: str, by=None, now: datetime | None = None)
     emergency.ended_at, emergency.ended_by, emergency.ended_via = now, by, via
     emergency.save(update_fields=["ended_at", "ended_by", "ended_via"])
     resumed = [code for code in emergency.stopped_robots if _resume(site, code, by, now)]
+    _audit(emergency, "all_clear", by=by, via=via)
     alerts_close(key=_alert_key(site), by=by, at=now)
     allocated = site_allocate_due(site_id=site.pk, now=now)
     for resource in Resource.objects.filter(site=site, kind=ResourceKind.ELEVATOR).order_by("pk"):
@@ -152,6 +156,18 @@ def emergency_heartbeat_check(*, applied) -> bool:
     _action_post(robot, OperatorActionKind.PAUSE)
     _tell_tasks(robot, HELD_NOTE, None, applied.now)
     return True
+
+
+def _audit(emergency: Emergency, action: str, *, by, via: str) -> None:
+    """Who started or ended the alarm, from where (the page or the REST API), on which floors."""
+    entry_record(
+        kind=Kind.OPERATOR_ACTION,
+        obj=emergency,
+        actor=by,
+        site_id=emergency.site_id,
+        object_repr=f"{emergency.get_kind_display()} at {emergency.site.code}",
+        data={"action": action, "via": via, "floors": emergency.floors},
+    )
 
 
 def _floors_checked(site: Site, floors: list[str]) -> list[str]:

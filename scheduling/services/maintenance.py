@@ -21,6 +21,7 @@ from scheduling.choices import ROUTE_STATUSES, Cause, MaintenanceActionKind, Tas
 from scheduling.models import OperatorAction, Task
 from scheduling.services.cancellation import return_stop_add, task_origin
 from scheduling.services.history import task_move
+from scheduling.services.operator import operator_action_record
 from scheduling.services.plans import robot_replan
 from scheduling.services.presence import robot_tasks_give_back
 
@@ -61,7 +62,7 @@ def robot_maintenance_start(
     if _hand_back_loaded(robot, by, now):
         robot_replan(robot=robot, now=now)
     robot_publish(robot=robot)
-    return OperatorAction.objects.create(
+    return operator_action_record(
         robot=robot, action=MaintenanceActionKind.MAINTENANCE, by=by, at=now, note=reason[:200]
     )
 
@@ -94,8 +95,12 @@ def _return_when_due(robot_id: int, now: datetime) -> bool:
         return False
     robot = robot_lock(robot_id)
     robot_publish(robot=robot)
-    OperatorAction.objects.create(
-        robot=robot, action=MaintenanceActionKind.RETURNED, at=now, note="its maintenance ended"
+    operator_action_record(
+        robot=robot,
+        action=MaintenanceActionKind.RETURNED,
+        by=None,
+        at=now,
+        note="its maintenance ended",
     )
     return True
 
@@ -105,7 +110,7 @@ def _returned(robot: Robot, by, note: str, now: datetime) -> OperatorAction:
     robot.maintenance_reason = ""
     robot.save(update_fields=FIELDS)
     robot_publish(robot=robot)
-    return OperatorAction.objects.create(
+    return operator_action_record(
         robot=robot, action=MaintenanceActionKind.RETURNED, by=by, at=now, note=note[:200]
     )
 

@@ -63,7 +63,7 @@ def robot_action(*, robot: Robot, action: str, by, now: datetime | None = None) 
         robot.save(update_fields=["paused_by_operator"])
         robot_publish(robot=robot)
     _tell_held_tasks(robot, action, by, now)
-    return _action_record(robot=robot, action=action, by=by, at=now, message=message)
+    return operator_action_record(robot=robot, action=action, by=by, at=now, message=message)
 
 
 # What the tasks still on the robot's route record, in their requesters' words.
@@ -99,7 +99,9 @@ def resource_operator_set_service(
         action = ResourceActionKind.OUT_OF_SERVICE
     if not changed:
         return None
-    return _action_record(resource=resource, action=action, by=by, at=now, note=reason[:200])
+    return operator_action_record(
+        resource=resource, action=action, by=by, at=now, note=reason[:200]
+    )
 
 
 def resource_operator_record(
@@ -108,13 +110,14 @@ def resource_operator_record(
     """A command of an operator to a lift or door (Hold doors, Let doors go, Send car),
     recorded with who, when and what like the other operator actions; the caller sends the
     command in the same transaction."""
-    return _action_record(
+    return operator_action_record(
         resource=resource, action=action, by=by, at=now or timezone.now(), note=note[:200]
     )
 
 
-def _action_record(*, by, **fields) -> OperatorAction:
-    """Store the operator's action and its audit entry, on the robot or resource it acted on."""
+def operator_action_record(*, by, **fields) -> OperatorAction:
+    """Store the operator's action and its audit entry, on the robot or resource it acted on.
+    Every operator action is stored through here, so none escapes the audit trail."""
     done = OperatorAction.objects.create(by=by, **fields)
     target = done.robot or done.resource
     entry_record(
