@@ -94,7 +94,8 @@ def test_it_records_a_robot_taken_into_maintenance_and_returned(site, staff):
         f"/api/v1/robots/{robot.code}/return-to-service", {}, content_type="application/json"
     )
 
-    assert taken.status_code < 300 and back.status_code < 300, (taken.content, back.content)
+    assert taken.status_code < 300, taken.content
+    assert back.status_code < 300, back.content
     recorded = entries(Kind.OPERATOR_ACTION, id__gt=before, object_pk=str(robot.pk))
     assert [(e.actor, e.additional_data["action"]) for e in recorded] == [
         (staff, "maintenance"),
