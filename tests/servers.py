@@ -67,7 +67,7 @@ def wait_for_port(port: int, process: subprocess.Popen, *, timeout: float = 30.0
 def gunicorn(*, workers: int = 2, env: dict | None = None, port: int | None = None):
     port = port or free_port()
     command = [
-        *(sys.executable, "-m", "gunicorn", "hospital_delivery.wsgi:application"),
+        *(sys.executable, "-m", "gunicorn", "tests.wsgi:application"),
         *("--bind", f"127.0.0.1:{port}", "--workers", str(workers)),
         *("--no-control-socket", "--log-level", "warning"),
     ]
