@@ -6,9 +6,9 @@ old ids in ContentType's cache, and the audit entries it writes would name a con
 no longer exists; so each request starts from an empty cache, as a freshly started server would.
 """
 
-from django.contrib.contenttypes.models import ContentType
+from hospital_delivery.wsgi import application as project_application  # sets Django up first
 
-from hospital_delivery.wsgi import application as project_application
+from django.contrib.contenttypes.models import ContentType  # noqa: E402  isort: skip
 
 
 def application(environ, start_response):
