@@ -15,12 +15,13 @@ from django.test import override_settings
 from django.utils import timezone
 
 from building.services import sim_sweep
-from robots.mapcache import site_map
+from robots.mapcache import router_for, site_map
 from robots.models import Robot, Waypoint
 from robotsim.vda5050 import VdaVehicle
 from scheduling.services.requests import task_request
 from tests import factories
 from vda5050.bridge import Bridge
+from vda5050.link import Link
 
 BROKER = ("127.0.0.1", 1883)
 MANUFACTURER = "Acme"
@@ -82,6 +83,23 @@ def vda_robot_create(site, code: str, serial: str, dock: str = "1F-DOCK-1") -> R
         protocol="vda5050",
         manufacturer=MANUFACTURER,
         serial_number=serial,
+    )
+
+
+@pytest.fixture
+def vehicle(site):
+    """A VDA 5050 vehicle of the site, driven in process through its Link (no MQTT)."""
+    return vda_robot_create(site, "V1", "SN-1")
+
+
+@pytest.fixture
+def link(vehicle):
+    return Link(
+        robot_id=vehicle.pk,
+        robot_code=vehicle.code,
+        dock=vehicle.dock.code,
+        site_map=site_map(vehicle.site),
+        router=router_for(vehicle.site),
     )
 
 

@@ -4,29 +4,10 @@ stopPause at the all-clear, as an operator's Pause and Resume."""
 import pytest
 from django.db import transaction
 
-from robots.mapcache import router_for, site_map
 from scheduling.services import emergency_end, emergency_start
-from tests.vda5050.conftest import vda_robot_create
 from tests.vda5050.test_link import exchange, state
-from vda5050.link import Link
 
 pytestmark = pytest.mark.django_db
-
-
-@pytest.fixture
-def vehicle(site):
-    return vda_robot_create(site, "V1", "SN-1")
-
-
-@pytest.fixture
-def link(vehicle):
-    return Link(
-        robot_id=vehicle.pk,
-        robot_code=vehicle.code,
-        dock=vehicle.dock.code,
-        site_map=site_map(vehicle.site),
-        router=router_for(vehicle.site),
-    )
 
 
 def test_a_vehicle_on_an_alarm_floor_pauses_and_resumes_at_the_all_clear(link, site, staff):

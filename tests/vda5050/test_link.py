@@ -5,30 +5,12 @@ import pytest
 from django.db import transaction
 
 from boards.models import RobotEvent
-from robots.mapcache import router_for, site_map
 from scheduling.services.operator import robot_action
-from tests.vda5050.conftest import deliver, vda_robot_create
-from vda5050.link import Link
+from tests.vda5050.conftest import deliver
 from vda5050.services import vehicle_heartbeat
 from vda5050.validation import validator
 
 pytestmark = pytest.mark.django_db
-
-
-@pytest.fixture
-def vehicle(site):
-    return vda_robot_create(site, "V1", "SN-1")
-
-
-@pytest.fixture
-def link(vehicle):
-    return Link(
-        robot_id=vehicle.pk,
-        robot_code=vehicle.code,
-        dock=vehicle.dock.code,
-        site_map=site_map(vehicle.site),
-        router=router_for(vehicle.site),
-    )
 
 
 def state(**changes) -> dict:
