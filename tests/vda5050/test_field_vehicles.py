@@ -7,17 +7,12 @@ import pytest
 from boards.models import RobotEvent
 from robots.mapcache import router_for, site_map
 from robots.models import Alert
-from tests.vda5050.conftest import deliver, vda_robot_create
+from tests.vda5050.conftest import deliver
 from tests.vda5050.test_link import exchange, exchange_all, state, state_request
 from vda5050.link import Link
 from vda5050.orders import VehicleOptions
 
 pytestmark = pytest.mark.django_db
-
-
-@pytest.fixture
-def vehicle(site):
-    return vda_robot_create(site, "V1", "SN-1")
 
 
 def link_for(vehicle, **options) -> Link:
