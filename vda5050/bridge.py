@@ -37,6 +37,7 @@ from vda5050.services import (
     vehicle_find,
     vehicle_heartbeat,
     vehicle_held_alert,
+    vehicle_held_alert_close,
 )
 from vda5050.validation import MessageInvalid, message_parse
 
@@ -237,6 +238,10 @@ class Bridge:
                 lift=crossing.resource,
                 floor=crossing.from_floor,
                 seconds=self.clock() - crossing.held_since,
+            )
+        for crossing in link.lift_cars_come():
+            vehicle_held_alert_close(
+                robot_id=link.robot_id, lift=crossing.resource, floor=crossing.from_floor
             )
 
     def _apply(self, link: Link, heartbeat: dict) -> list[dict]:

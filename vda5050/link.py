@@ -97,6 +97,7 @@ class Link:
     observed_interval: float = 0.0  # the longest gap between two of its states
     factsheet: dict = field(default_factory=dict)  # its last `factsheet` message, if any
     factsheet_asked: bool = False
+    cars_come: list[Crossing] = field(default_factory=list)  # late, after an alert
 
     def resume(self, plan: dict) -> None:
         """Start from the robot's current plan (the bridge started while it was out): the
@@ -193,6 +194,11 @@ class Link:
                 crossing.held_alerted = True
                 late.append(crossing)
         return late
+
+    def lift_cars_come(self) -> list[Crossing]:
+        """The lifts whose car came after all, once the alert was raised: each once."""
+        came, self.cars_come = self.cars_come, []
+        return came
 
     def _refusals_seen(self, state: dict) -> None:
         """The vehicle refused our order: its tasks go back (task_failed, with its words)."""
@@ -383,6 +389,8 @@ class Link:
                 continue
             if not crossing.entered and message["floor"] == crossing.from_floor:
                 crossing.car_here = True
+                if crossing.held_alerted:
+                    self.cars_come.append(crossing)
                 return True
             if crossing.entered and message["floor"] == crossing.to_floor:
                 crossing.car_there = True

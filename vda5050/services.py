@@ -13,7 +13,7 @@ from boards.protocol import message_wire
 from boards.serializers import heartbeat_validate
 from boards.services import HeartbeatRejected, heartbeat_apply
 from core.errors import flatten_errors
-from robots.alerts import alert_raise
+from robots.alerts import alert_raise, alerts_close
 from robots.choices import RobotProtocol
 from robots.mapcache import router_for, site_map
 from robots.models import AlertKind, Robot
@@ -117,10 +117,20 @@ def vehicle_held_alert(*, robot_id: int, lift: str, floor: str, seconds: float) 
     alert_raise(
         site_id=robot.site_id,
         kind=AlertKind.LIFT_CAR_MISSING,
-        key=f"lift-car-missing:{robot.code}:{lift}:{floor}",
+        key=_held_key(robot.code, lift, floor),
         message=(
             f"{robot.code} has waited {seconds:.0f} s at {lift} on floor {floor} for a car that "
             "has not come; it stays there until the car reports that floor with its doors open"
         ),
         robot=robot,
     )
+
+
+def vehicle_held_alert_close(*, robot_id: int, lift: str, floor: str) -> None:
+    """The car came after all: the alert is closed (the cause is gone)."""
+    code = Robot.objects.values_list("code", flat=True).get(pk=robot_id)
+    alerts_close(key=_held_key(code, lift, floor))
+
+
+def _held_key(robot_code: str, lift: str, floor: str) -> str:
+    return f"lift-car-missing:{robot_code}:{lift}:{floor}"

@@ -3,10 +3,13 @@ before it is sent; an order the vehicle could not do is refused on our side with
 And the operators' side of a refusal and of a lift whose car never comes: one alert each."""
 
 import json
+from datetime import timedelta
 
 import pytest
+from django.utils import timezone
 
 from boards.models import RobotEvent
+from building.services import sim_sweep
 from robots.models import Alert, Robot
 from scheduling.models import Task
 from tests import servers
@@ -137,7 +140,7 @@ def test_it_raises_one_alert_for_an_order_of_two_tasks_the_vehicle_refused(vehic
     assert "orderError: invalid actionParameter loadType" in alert.message
 
 
-def test_it_alerts_once_when_the_car_never_comes_and_keeps_the_vehicle_held(site):
+def test_it_alerts_once_when_the_car_does_not_come_and_keeps_the_vehicle_held(site):
     robot = vda_robot_create(site, "V1", "SN-1")
     robot.vda5050 = {"lift_wait_alert": 45}
     robot.save(update_fields=["vda5050"])
@@ -182,6 +185,13 @@ def test_it_alerts_once_when_the_car_never_comes_and_keeps_the_vehicle_held(site
     ]
     assert max(released) == crossing.wait_seq
     assert Robot.objects.get(pk=robot.pk).status == "waiting_resource"
+    # The car comes after all (the building's sweep, late): the vehicle is let in, the alert
+    # closes by itself.
+    sim_sweep(now=timezone.now() + timedelta(seconds=60))
+    at_lobby(8, 1002.0 + 201)
+    assert crossing.car_here
+    assert order.released_until == crossing.car_seq
+    assert Alert.objects.open().filter(kind="lift_car_missing").count() == 0
 
 
 @pytest.mark.django_db(transaction=True)
