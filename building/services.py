@@ -249,6 +249,7 @@ def sim_step(*, device: Device, now: datetime, floors=None) -> bool:
         door_open=device.wants_door_open,
         now=now,
         seconds_per_floor=device.resource.seconds_per_floor,
+        speedup=settings.BUILDING_SIM_SPEEDUP,
     )
     if after == state and not _announce_due(device):
         Device.objects.filter(pk=device.pk).update(reported_at=now)

@@ -544,6 +544,9 @@ for _network in WEBHOOK_ALLOWED_NETWORKS:
 BUILDING_ADAPTER = env_str("BUILDING_ADAPTER", "sim")
 if BUILDING_ADAPTER not in ("sim", "mqtt", "none"):
     raise ImproperlyConfigured("BUILDING_ADAPTER must be sim, mqtt or none")
+# The simulated lifts and doors move this many times faster than real ones: the tests' robots
+# are simulated faster than real time too (BUILDING_ADAPTER=sim only).
+BUILDING_SIM_SPEEDUP = env_int("BUILDING_SIM_SPEEDUP", 1, minimum=1)
 # A device silent this long (seconds) is taken out of service.
 BUILDING_REPORT_TIMEOUT = env_int("BUILDING_REPORT_TIMEOUT", 10, minimum=1)
 BUILDING_MQTT_HOST = env_str("BUILDING_MQTT_HOST", "127.0.0.1")

@@ -272,6 +272,7 @@ VDA5050_FIELDS = {
     "drop": _Field(dict),
     "stations": _Field(dict),
     "state_interval": _Field(NUMBER, above=0, maximum=3600),
+    "lift_wait_alert": _Field(NUMBER, above=0, maximum=3600),
     "quirks": _Field(list),
 }
 VDA5050_ACTIONS = ("pick", "drop")

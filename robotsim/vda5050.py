@@ -9,7 +9,8 @@ node; `cancelOrder` ends its order at the next node. A new order is accepted onl
 no order left to drive (the standard's rule; master control cancels first).
 
 It publishes `connection` ONLINE (retained) on connecting, with CONNECTIONBROKEN as its last
-will, and `state` on every change and every `state_every` real seconds. `break_connection()`
+will, its `factsheet` (retained; again on `factsheetRequest`) listing `actions`, and `state` on
+every change and every `state_every` real seconds. `break_connection()`
 drops the network without a goodbye, so the broker sends the last will.
 """
 
@@ -32,6 +33,19 @@ logger = logging.getLogger("robotsim.vda5050")
 
 VERSION = "2.0.0"
 ACTION_DONE = {"FINISHED", "FAILED"}
+# What it can do, as its factsheet lists it: pick and drop with 2.0's two listed parameters.
+ACTIONS = (
+    "pick",
+    "drop",
+    "initPosition",
+    "startPause",
+    "stopPause",
+    "cancelOrder",
+    "stateRequest",
+    "factsheetRequest",
+)
+INSTANT_ONLY = {"startPause", "stopPause", "cancelOrder", "stateRequest", "factsheetRequest"}
+SPEED_MAX = 1.5  # metres per second
 
 
 def _now_wire() -> str:
@@ -59,6 +73,7 @@ class VdaVehicle:
         staff_delay: tuple[float, float] = (15.0, 60.0),
         state_every: float = 1.0,
         rng: random.Random | None = None,
+        actions: tuple[str, ...] | None = ACTIONS,
     ):
         self.map = site_map
         self.router = Router(site_map)
@@ -70,6 +85,7 @@ class VdaVehicle:
         self.staff_delay = staff_delay
         self.state_every = state_every
         self.rng = rng or random.Random()
+        self.supported = actions  # None: it publishes no factsheet
         self.lock = threading.RLock()
         # What the vehicle is doing (under self.lock).
         self.order_id, self.update_id = "", 0
@@ -155,6 +171,7 @@ class VdaVehicle:
     def _on_connect(self, client, userdata, flags, reason_code, properties=None) -> None:
         client.subscribe([(f"{self.prefix}/order", 1), (f"{self.prefix}/instantActions", 1)])
         client.publish(f"{self.prefix}/connection", self._connection("ONLINE"), qos=1, retain=True)
+        self._publish_factsheet()
         self._changed = True
 
     def _on_message(self, client, userdata, message) -> None:
@@ -181,6 +198,41 @@ class VdaVehicle:
             "manufacturer": self.manufacturer,
             "serialNumber": self.serial_number,
         }
+
+    def factsheet(self) -> dict:
+        """Its factsheet (2.0): the parts a master control checks an order with."""
+        parameters = [
+            {"key": key, "valueDataType": "STRING", "isOptional": False}
+            for key in ("stationType", "loadType")
+        ]
+        return {
+            **self._header("factsheet"),
+            "typeSpecification": {
+                "seriesName": "robotsim",
+                "agvKinematic": "DIFF",
+                "agvClass": "CARRIER",
+                "maxLoadMass": 20,
+                "localizationTypes": ["NATURAL"],
+                "navigationTypes": ["AUTONOMOUS"],
+            },
+            "physicalParameters": {"speedMin": 0.0, "speedMax": SPEED_MAX},
+            "protocolFeatures": {
+                "optionalParameters": [],
+                "agvActions": [
+                    {
+                        "actionType": kind,
+                        "actionScopes": ["INSTANT"] if kind in INSTANT_ONLY else ["NODE"],
+                        "actionParameters": parameters if kind in ("pick", "drop") else [],
+                    }
+                    for kind in self.supported or ()
+                ],
+            },
+        }
+
+    def _publish_factsheet(self) -> None:
+        if self.supported is not None:
+            body = json.dumps(self.factsheet())
+            self.client.publish(f"{self.prefix}/factsheet", body, qos=1, retain=True)
 
     def _connection(self, state: str) -> str:
         return json.dumps({**self._header("connection"), "connectionState": state})
@@ -240,6 +292,8 @@ class VdaVehicle:
             self.paused = True
         elif kind == "stopPause":
             self.paused = False
+        elif kind == "factsheetRequest":
+            self._publish_factsheet()
         elif kind == "cancelOrder":
             # Ends at the node it is driving to; actions not started fail.
             self.nodes = [self.motion.node] if self.motion else []

@@ -46,7 +46,7 @@ class LibVehicle:
 class LibVehicles:
     """The vehicles in one node process; `time_lapse` speeds their driving and actions up."""
 
-    def __init__(self, vehicles: list[LibVehicle], *, broker, interface: str, time_lapse=10):
+    def __init__(self, vehicles: list[LibVehicle], *, broker, interface: str, time_lapse=25):
         self.vehicles, self.broker, self.interface = vehicles, broker, interface
         self.time_lapse = time_lapse
         self.process = None

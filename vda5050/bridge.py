@@ -33,8 +33,11 @@ from vda5050.orders import VehicleOptions
 from vda5050.services import (
     HeartbeatRefused,
     vehicle_connection_lost,
+    vehicle_factsheet_store,
     vehicle_find,
     vehicle_heartbeat,
+    vehicle_held_alert,
+    vehicle_held_alert_close,
 )
 from vda5050.validation import MessageInvalid, message_parse
 
@@ -125,7 +128,9 @@ class Bridge:
             logger.error("MQTT connection refused: %s", reason_code)
             return
         prefix = f"{self.interface}/{MAJOR_VERSION}/+/+"
-        client.subscribe([(f"{prefix}/connection", QOS), (f"{prefix}/state", QOS)])
+        client.subscribe(
+            [(f"{prefix}/{topic}", QOS) for topic in ("connection", "state", "factsheet")]
+        )
         logger.info("VDA 5050 bridge on %s:%s, topics %s/...", self.host, self.port, prefix)
 
     def _on_disconnect(self, client, userdata, flags, reason_code, properties=None) -> None:
@@ -155,8 +160,8 @@ class Bridge:
             metrics.message_rejected(topic=kind, reason="error")
 
     def _handle(self, parts: list[str], kind: str, payload: bytes) -> None:
-        if kind not in ("connection", "state"):
-            raise MessageInvalid("topic", "not a connection or state topic")
+        if kind not in ("connection", "state", "factsheet"):
+            raise MessageInvalid("topic", "not a connection, state or factsheet topic")
         message = message_parse(kind, payload)
         identity = (parts[2], parts[3])
         if (message["manufacturer"], message["serialNumber"]) != identity:
@@ -164,6 +169,10 @@ class Bridge:
         link = self._link(identity)
         if kind == "connection":
             self._connection(link, identity, message)
+        elif kind == "factsheet":
+            link.factsheet_seen(message)
+            vehicle_factsheet_store(robot_id=link.robot_id, factsheet=message)
+            logger.info("%s: factsheet", link.robot_code)
         else:
             self._state(link, identity, message)
         metrics.message_applied(topic=kind)
@@ -182,6 +191,7 @@ class Bridge:
                 router=vehicle.router,
                 options=VehicleOptions.from_site(vehicle.options),
                 lifts_by_car=vehicle.lifts_by_car,
+                factsheet=vehicle.factsheet,
             )
             if vehicle.plan is not None:
                 link.resume(vehicle.plan)
@@ -208,6 +218,9 @@ class Bridge:
         self.states[identity] = now
         link.connection = "ONLINE"  # a state says it is there, whatever a last will said
         self._beat(identity, link, message)
+        ask = link.factsheet_request()  # one not retained on the broker: asked for once
+        if ask is not None:
+            self.publish(identity, ask)
 
     def _beat(self, identity: tuple[str, str], link: Link, state: dict) -> None:
         self.beats[identity] = self.clock()
@@ -218,6 +231,18 @@ class Bridge:
             raise
         for outgoing in link.messages(messages):
             self.publish(identity, outgoing)
+        for crossing in link.held_at_lift(self.clock()):
+            logger.error("%s: held at %s, the car not come", link.robot_code, crossing.resource)
+            vehicle_held_alert(
+                robot_id=link.robot_id,
+                lift=crossing.resource,
+                floor=crossing.from_floor,
+                seconds=self.clock() - crossing.held_since,
+            )
+        for crossing in link.lift_cars_come():
+            vehicle_held_alert_close(
+                robot_id=link.robot_id, lift=crossing.resource, floor=crossing.from_floor
+            )
 
     def _apply(self, link: Link, heartbeat: dict) -> list[dict]:
         try:

@@ -23,10 +23,12 @@ import uuid
 from dataclasses import dataclass, field
 
 from robots.router import Router, SiteMap
+from vda5050.factsheet import factsheet_speed_max, order_problems
 from vda5050.orders import (
     ALLOWED_DEVIATION_XY,
     EVENT_OF_ACTION,
     INSTANT_ACTIONS_FIELD,
+    Crossing,
     Order,
     VehicleOptions,
     action_parse,
@@ -93,6 +95,9 @@ class Link:
     refused: set[str] = field(default_factory=set)  # orderIds the vehicle refused
     connection: str = ""  # its last `connection` message's connectionState
     observed_interval: float = 0.0  # the longest gap between two of its states
+    factsheet: dict = field(default_factory=dict)  # its last `factsheet` message, if any
+    factsheet_asked: bool = False
+    cars_come: list[Crossing] = field(default_factory=list)  # late, after an alert
 
     def resume(self, plan: dict) -> None:
         """Start from the robot's current plan (the bridge started while it was out): the
@@ -148,6 +153,53 @@ class Link:
     def connected(self) -> bool:
         return self.connection not in GONE
 
+    # --- factsheet -----------------------------------------------------------------------------
+
+    def factsheet_seen(self, factsheet: dict) -> None:
+        self.factsheet = factsheet
+        speed_max = factsheet_speed_max(factsheet)
+        if speed_max is not None and speed_max < self.site_map.robot_speed:
+            logger.warning(
+                "%s: its top speed (%s m/s) is below the site's robot_speed (%s m/s): its ETAs "
+                "will be late",
+                self.robot_code,
+                speed_max,
+                self.site_map.robot_speed,
+            )
+
+    def factsheet_request(self) -> Outgoing | None:
+        """factsheetRequest, once, to a vehicle whose factsheet we have not seen."""
+        if self.factsheet or self.factsheet_asked:
+            return None
+        self.factsheet_asked = True
+        return self.instant_actions("factsheetRequest")
+
+    # --- held at a lift -----------------------------------------------------------------------
+
+    def held_at_lift(self, now: float) -> list[Crossing]:
+        """The lifts at whose lobby the vehicle has waited, granted, longer than the site allows
+        for a car that does not come: each once. It stays held (base_end keeps the car's edge)."""
+        state, order = self.last_state, self.order
+        if state is None or order is None or state["orderId"] != order.order_id:
+            return []
+        late = []
+        for crossing in order.crossings:
+            waiting = crossing.car_seq is not None and crossing.granted and not crossing.car_here
+            if not waiting or state["lastNodeSequenceId"] != crossing.wait_seq:
+                continue
+            if crossing.held_since is None:
+                crossing.held_since = now
+            too_long = now - crossing.held_since >= self.options.lift_wait_alert
+            if too_long and not crossing.held_alerted:
+                crossing.held_alerted = True
+                late.append(crossing)
+        return late
+
+    def lift_cars_come(self) -> list[Crossing]:
+        """The lifts whose car came after all, once the alert was raised: each once."""
+        came, self.cars_come = self.cars_come, []
+        return came
+
     def _refusals_seen(self, state: dict) -> None:
         """The vehicle refused our order: its tasks go back (task_failed, with its words)."""
         order = self.order
@@ -163,9 +215,13 @@ class Link:
                 return
 
     def _order_refused(self, order: Order, error: dict) -> None:
-        self.refused.add(order.order_id)
         words = f"{error['errorType']}: {error.get('errorDescription', '')}".strip(": ")
-        reason = f"{self.robot_code} refused order {order.order_id}: {words}"[:200]
+        self._tasks_given_back(order, f"{self.robot_code} refused order {order.order_id}: {words}")
+
+    def _tasks_given_back(self, order: Order, reason: str) -> None:
+        """The order's tasks not done go back (task_failed, one reason: one operator alert)."""
+        self.refused.add(order.order_id)
+        reason = reason[:200]
         logger.error("%s", reason)
         for task, stop, _ in order.stop_actions.values():
             if (task, stop) not in self.done:
@@ -333,6 +389,8 @@ class Link:
                 continue
             if not crossing.entered and message["floor"] == crossing.from_floor:
                 crossing.car_here = True
+                if crossing.held_alerted:
+                    self.cars_come.append(crossing)
                 return True
             if crossing.entered and message["floor"] == crossing.to_floor:
                 crossing.car_there = True
@@ -415,6 +473,13 @@ class Link:
             lifts_by_car=self.lifts_by_car,
         )
         self.versions[order_id] = wanted.plan_version
+        problems = order_problems(self.factsheet, self.order)
+        if problems:  # refused here: never sent, its tasks back as if the vehicle had refused
+            words = "; ".join(problems)
+            self._tasks_given_back(
+                self.order, f"{self.robot_code}: order {order_id} not sent: {words}"
+            )
+            return []
         for waypoint in self.order.unreachable:
             logger.error("%s: no route to %s", self.robot_code, waypoint)
         logger.info("%s: order %s (plan %s)", self.robot_code, order_id, wanted.plan_version)

@@ -34,6 +34,9 @@ DEFAULT_PARAMETERS = {
 # How far from a node's position the vehicle may be and still count as on it (2.0 §6.6.3.1:
 # the first node of a new order is where the vehicle stands, within this range).
 ALLOWED_DEVIATION_XY = 0.5
+# How long a vehicle may wait at a lift it was granted, for a car that does not come, before
+# the operators are told (the robot's `vda5050.lift_wait_alert` in the site file).
+LIFT_WAIT_ALERT = 120.0
 INSTANT_ACTIONS_FIELD = "instant_actions_field"
 INIT_POSITION_AFTER_LIFT = "init_position_after_lift"
 
@@ -46,6 +49,7 @@ class VehicleOptions:
     drop: dict = field(default_factory=dict)
     stations: dict = field(default_factory=dict)
     state_interval: float | None = None
+    lift_wait_alert: float = LIFT_WAIT_ALERT
     quirks: frozenset[str] = frozenset()
 
     @classmethod
@@ -54,6 +58,7 @@ class VehicleOptions:
         return cls(
             **known,
             state_interval=data.get("state_interval"),
+            lift_wait_alert=data.get("lift_wait_alert", LIFT_WAIT_ALERT),
             quirks=frozenset(data.get("quirks", ())),
         )
 
@@ -82,6 +87,8 @@ class Crossing:
     from_floor: str | None = None  # the floor of the waiting node (lifts)
     car_here: bool = False  # the car reported at from_floor, doors open
     car_there: bool = False  # the car reported at to_floor with the vehicle in it
+    held_since: float | None = None  # the bridge's clock: when it began waiting for the car
+    held_alerted: bool = False
 
     @property
     def inside(self) -> bool:

@@ -13,9 +13,10 @@ from boards.protocol import message_wire
 from boards.serializers import heartbeat_validate
 from boards.services import HeartbeatRejected, heartbeat_apply
 from core.errors import flatten_errors
+from robots.alerts import alert_raise, alerts_close
 from robots.choices import RobotProtocol
 from robots.mapcache import router_for, site_map
-from robots.models import Robot
+from robots.models import AlertKind, Robot
 from robots.router import Router, SiteMap
 from robots.services import robot_connection_lost, robot_lock
 from scheduling.models import RobotPlan, TaskStop, task_pk
@@ -31,6 +32,7 @@ class Vehicle:
     plan: dict | None  # the robot's current plan, stops done left out (after a restart)
     options: dict  # the site file's `vda5050` mapping of the robot
     lifts_by_car: bool  # the building drives the lifts and reports where their cars are
+    factsheet: dict  # the vehicle's last factsheet, stored ({} if it never sent one)
 
 
 class HeartbeatRefused(Exception):
@@ -61,6 +63,7 @@ def vehicle_find(*, manufacturer: str, serial_number: str) -> Vehicle | None:
         plan=vehicle_plan_now(robot_id=robot.pk),
         options=robot.vda5050 or {},
         lifts_by_car=settings.BUILDING_ADAPTER != "none",
+        factsheet=robot.vda5050_factsheet or {},
     )
 
 
@@ -101,3 +104,33 @@ def vehicle_heartbeat(*, robot_id: int, heartbeat: dict) -> list[dict]:
 
 def vehicle_connection_lost(*, robot_id: int, graceful: bool) -> str:
     return robot_connection_lost(robot_id=robot_id, graceful=graceful)
+
+
+def vehicle_factsheet_store(*, robot_id: int, factsheet: dict) -> None:
+    """Keep the vehicle's factsheet (operators read it; a restarted bridge checks with it)."""
+    Robot.objects.filter(pk=robot_id).update(vda5050_factsheet=factsheet)
+
+
+def vehicle_held_alert(*, robot_id: int, lift: str, floor: str, seconds: float) -> None:
+    """One alert: the vehicle waits, granted, at a lift whose car has not come to its floor."""
+    robot = Robot.objects.get(pk=robot_id)
+    alert_raise(
+        site_id=robot.site_id,
+        kind=AlertKind.LIFT_CAR_MISSING,
+        key=_held_key(robot.code, lift, floor),
+        message=(
+            f"{robot.code} has waited {seconds:.0f} s at {lift} on floor {floor} for a car that "
+            "has not come; it stays there until the car reports that floor with its doors open"
+        ),
+        robot=robot,
+    )
+
+
+def vehicle_held_alert_close(*, robot_id: int, lift: str, floor: str) -> None:
+    """The car came after all: the alert is closed (the cause is gone)."""
+    code = Robot.objects.values_list("code", flat=True).get(pk=robot_id)
+    alerts_close(key=_held_key(code, lift, floor))
+
+
+def _held_key(robot_code: str, lift: str, floor: str) -> str:
+    return f"lift-car-missing:{robot_code}:{lift}:{floor}"

@@ -7,7 +7,7 @@ from pathlib import Path
 from jsonschema import Draft202012Validator, FormatChecker
 
 SCHEMAS = Path(__file__).resolve().parent / "schemas"
-TOPICS = ("connection", "state", "order", "instantActions")
+TOPICS = ("connection", "state", "factsheet", "order", "instantActions")
 
 
 class MessageInvalid(Exception):

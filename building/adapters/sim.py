@@ -7,6 +7,8 @@ controller's report is applied, so everything downstream is the same code.
 A lift: doors open or close in DOOR_SECONDS; the car moves only with its doors closed, one
 floor per `seconds_per_floor`; stopped at the requested floor, it opens the doors if asked.
 A door: opens or closes in DOOR_SECONDS.
+`speedup` runs the whole device that many times faster (settings.BUILDING_SIM_SPEEDUP: tests
+whose robots are simulated faster than real time ride lifts as fast as they drive).
 """
 
 from dataclasses import dataclass, replace
@@ -34,10 +36,13 @@ def sim_advance(
     door_open: bool,
     now: datetime,
     seconds_per_floor: float,
+    speedup: float = 1.0,
 ) -> SimState:
     """The state at `now`, stepping through every transition that time allows."""
     for _ in range(1000):  # bounded: each pass either moves on or stops
-        following = _next(state, target=target, door_open=door_open, spf=seconds_per_floor)
+        following = _next(
+            state, target=target, door_open=door_open, spf=seconds_per_floor, speedup=speedup
+        )
         if following is None:
             return state
         due, after = following
@@ -47,10 +52,10 @@ def sim_advance(
     return state
 
 
-def _next(state: SimState, *, target, door_open, spf) -> tuple[datetime, SimState] | None:
+def _next(state: SimState, *, target, door_open, spf, speedup) -> tuple[datetime, SimState] | None:
     """The next transition (when it happens, the state after), or None if at rest."""
-    spf = max(spf, MIN_SECONDS_PER_FLOOR)
-    door_done = state.since + timedelta(seconds=DOOR_SECONDS)
+    spf = max(spf, MIN_SECONDS_PER_FLOOR) / speedup
+    door_done = state.since + timedelta(seconds=DOOR_SECONDS / speedup)
     must_move = state.level is not None and target is not None and state.level != target
     if state.door == MOVING:  # which way follows from what is asked now
         opened = door_open and not must_move

@@ -2,6 +2,7 @@ from django.conf import settings
 from django.db import models
 from django.db.models import Q
 from django.utils import timezone
+from django.utils.translation import gettext_lazy as _
 
 from robots.models.fleet import Robot
 from robots.models.map import Resource, Site
@@ -21,6 +22,7 @@ class AlertKind(models.TextChoices):
     RESOURCE_OUT_OF_SERVICE = "resource_out_of_service", "Elevator, door or corridor out of service"
     FIRE_ALARM = "fire_alarm", "Fire alarm: robots stopped, no lift granted, deliveries held"
     ROBOT_STUCK = "robot_stuck", "Robot reports moving but makes no progress"
+    LIFT_CAR_MISSING = "lift_car_missing", _("Robot held at a lift whose car does not come")
 
 
 class AlertQuerySet(models.QuerySet):

@@ -40,6 +40,9 @@ class Robot(models.Model):
     # The site file's `vda5050` mapping (sitefile.VDA5050_FIELDS): pick/drop parameters, per
     # station too, the vehicle's state interval and its quirks; the bridge reads it.
     vda5050 = models.JSONField(default=dict, blank=True, help_text="VDA 5050 only")
+    # The vehicle's own last `factsheet` message (VDA 5050 2.0): the actions it can do and
+    # their parameters, its speed; the bridge checks each order against it.
+    vda5050_factsheet = models.JSONField(default=dict, blank=True, help_text="VDA 5050 only")
     token_hash = models.CharField(max_length=64, blank=True, editable=False)
     token_issued_at = models.DateTimeField(null=True, blank=True, editable=False)
 

@@ -4,7 +4,7 @@ Runs inside the heartbeat's transaction with the robot row locked; plans posted 
 in the same response. Unknown task codes and stops refuse the whole heartbeat (400).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime
 
 from boards.choices import EventType, MessageType
@@ -50,6 +50,8 @@ class _Heartbeat:
     tasks: dict[str, Task]
     failed: bool = False
     finished: bool = False
+    # (reason, task, outcome) of each task_failed: one alert per reason (a refused order)
+    failures: list[tuple[str, Task, str]] = field(default_factory=list)
 
 
 def heartbeat_tasks_apply(*, applied: AppliedHeartbeat) -> None:
@@ -70,6 +72,7 @@ def heartbeat_tasks_apply(*, applied: AppliedHeartbeat) -> None:
             _plan_acked(beat, message)
         for _, event in events:
             _event_apply(beat, event)
+    _failures_alert(beat)
     _replan_if_needed(beat)
 
 
@@ -281,16 +284,35 @@ def _failed(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> bool:
         fields = ["failed_at", "eta"]
         task_move(task, TaskStatus.FAILED, at=beat.now, fields=fields, note=reason, **why)
         outcome = "items still on board" if _loaded_any(task) else "it had failed before"
-    alert_raise(
-        site_id=task.site_id,
-        kind=AlertKind.TASK_FAILED,
-        key=f"task-failed:{task.code}",
-        message=f"{task.code} ({task.contents}) failed on {beat.robot.code}{because} ({outcome})",
-        robot=beat.robot,
-        task=task.code,
-    )
+    beat.failures.append((reason, task, outcome))
     beat.failed = True
     return True
+
+
+def _failures_alert(beat: _Heartbeat) -> None:
+    """One alert per reason: tasks failed together for one cause (a vehicle refusing an order
+    of several) are one thing for the operators to see, not one alert each."""
+    by_reason: dict[str, list[tuple[Task, str]]] = {}
+    for reason, task, outcome in beat.failures:
+        by_reason.setdefault(reason, []).append((task, outcome))
+    for reason, failed in by_reason.items():
+        because = f": {reason}" if reason else ""
+        tasks = ", ".join(f"{task.code} ({task.contents})" for task, _ in failed)
+        outcomes = {outcome for _, outcome in failed}
+        if len(outcomes) == 1:
+            outcome = outcomes.pop()
+        else:
+            outcome = "; ".join(f"{task.code}: {outcome}" for task, outcome in failed)
+        first = failed[0][0]
+        codes = "+".join(task.code for task, _ in failed)
+        alert_raise(
+            site_id=first.site_id,
+            kind=AlertKind.TASK_FAILED,
+            key=f"task-failed:{codes}"[:200],
+            message=f"{tasks} failed on {beat.robot.code}{because} ({outcome})",
+            robot=beat.robot,
+            task=first.code,
+        )
 
 
 def _loaded_any(task: Task) -> bool:

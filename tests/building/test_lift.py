@@ -163,3 +163,19 @@ def test_a_silent_lift_is_taken_out_of_service(site, elevator, settings):
     assert not elevator.in_service
     assert "has not reported" in elevator.out_of_service_reason
     assert silence_sweep(now=heard + timedelta(seconds=12)) == 0  # once
+
+
+def test_it_runs_the_simulated_lift_faster_when_told(site, elevator, settings):
+    settings.BUILDING_SIM_SPEEDUP = 10  # the VDA 5050 tests' vehicles drive faster than real
+    robot = robot_on(site, "R1", "2F")
+    lease_acquire(robot=robot, resource=elevator, request_id="q-1", to_floor="3F", now=at(0))
+    lift = run(lift_of(elevator), 0.1)  # the car sets off upwards from 1F
+    lift = run(lift, 0.24)  # 2.5 s per floor, ten times faster: not there yet
+    assert floor(lift) == "1F"
+    lift = run(lift, 0.26)
+    assert (floor(lift), lift.door) == ("2F", "moving")
+    lift = run(lift, 0.44)  # its doors open in 0.2 s, not 2
+    assert lift.door == "moving"
+    lift = run(lift, 0.46)
+    assert lift.door == "open"
+    assert [m["floor"] for m in at_floor_messages(robot)] == ["2F"]

@@ -33,6 +33,7 @@ LIB_VEHICLE = {
     "pick": {"stationType": "floor", "loadType": "EPAL"},
     "stations": {"2F-LAB": {"drop": {"stationType": "floor-lab", "height": 0.8}}},
     "state_interval": 30,
+    "lift_wait_alert": 90,
     "quirks": ["instant_actions_field"],
 }
 
@@ -62,6 +63,7 @@ def test_it_loads_a_vehicles_own_needs_from_the_site_file():
         ),
         ([vda(vda5050={"quirks": ["flies"]})], "robots[0].vda5050.quirks[0]: one of"),
         ([vda(vda5050={"state_interval": 0})], "robots[0].vda5050.state_interval"),
+        ([vda(vda5050={"lift_wait_alert": -5})], "robots[0].vda5050.lift_wait_alert"),
         ([vda(vda5050={"pick": {"loadType": ["EPAL"]}})], "robots[0].vda5050.pick.loadType"),
         ([vda(vda5050={"grab": {}})], "robots[0].vda5050.grab"),
         (

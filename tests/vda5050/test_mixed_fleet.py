@@ -27,7 +27,7 @@ from robotsim.simulator import Behaviour
 from robotsim.traffic import HttpTaskApi
 from scheduling.models import Task, TaskTransition
 from tests import factories, servers
-from tests.vda5050.conftest import Spy, vda_robot_create, vehicle_start
+from tests.vda5050.conftest import BUILDING_SPEEDUP, Spy, vda_robot_create, vehicle_start
 from vda5050.validation import validator
 
 pytestmark = [pytest.mark.slow, pytest.mark.django_db(transaction=True)]
@@ -43,7 +43,10 @@ SPEEDUP = 25
 
 @pytest.fixture
 def stack(transactional_db, mosquitto):
-    env = {"ALLOCATION_POLICY": "single"}  # one task each: all four drive at once
+    env = {
+        "ALLOCATION_POLICY": "single",  # one task each: all four drive at once
+        "BUILDING_SIM_SPEEDUP": str(BUILDING_SPEEDUP),
+    }
     with Stack(database_url=servers.test_database_url(), web_workers=2, beat=True, env=env) as s:
         yield s
 

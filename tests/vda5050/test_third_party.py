@@ -127,6 +127,11 @@ def test_it_delivers_across_floors_with_two_third_party_vehicles(site, bridge, i
             )
     flips = PresenceChange.objects.filter(robot__in=robots).exclude(new="online")
     assert not flips.exists()  # never unreachable, the quiet one neither
+    # Asked for its factsheet, the library's vehicle publishes one with its header only:
+    # stored, and nothing in it to hold an order against.
+    for robot in Robot.objects.filter(pk__in=[r.pk for r in robots]):
+        assert robot.vda5050_factsheet["serialNumber"] == robot.serial_number
+        assert "protocolFeatures" not in robot.vda5050_factsheet
     for task in tasks:
         moves = TaskTransition.objects.filter(task=task).exclude(old="").values_list("old", "new")
         changes = [new for old, new in moves if old != new]
