@@ -2,25 +2,29 @@ from django.conf import settings
 from django.db import models
 from django.db.models import Q
 from django.utils import timezone
+from django.utils.translation import gettext_lazy as _
 
 from robots.models.fleet import Robot
 from robots.models.map import Resource, Site
 
 
 class AlertKind(models.TextChoices):
-    LEASE_HARD_LIMIT = "lease_hard_limit", "Robot silent inside a resource past the hard limit"
-    ENTERED_WITHOUT_GRANT = "entered_without_grant", "Robot entered a resource without a grant"
-    TASK_FAILED = "task_failed", "Delivery failed"
-    OFFLINE_WITH_LOAD = "offline_with_load", "Robot offline with items on board"
-    ROBOT_ERROR = "robot_error", "Robot reports an error"
-    EVENT_ANOMALY = "event_anomaly", "Robot event that does not fit the delivery"
-    COMPARTMENT_LOCKED = "compartment_locked", "Compartment kept locked after wrong PINs"
-    UNLOAD_TIMEOUT = "unload_timeout", "Nobody unloaded a robot waiting at a drop-off"
-    UNATTENDED = "unattended", "Robot moved on from a drop-off nobody unloaded"
-    DEADLINE_AT_RISK = "deadline_at_risk", "Delivery will be late"
-    RESOURCE_OUT_OF_SERVICE = "resource_out_of_service", "Elevator, door or corridor out of service"
-    FIRE_ALARM = "fire_alarm", "Fire alarm: robots stopped, no lift granted, deliveries held"
-    ROBOT_STUCK = "robot_stuck", "Robot reports moving but makes no progress"
+    LEASE_HARD_LIMIT = "lease_hard_limit", _("Robot silent inside a resource past the hard limit")
+    ENTERED_WITHOUT_GRANT = "entered_without_grant", _("Robot entered a resource without a grant")
+    TASK_FAILED = "task_failed", _("Delivery failed")
+    OFFLINE_WITH_LOAD = "offline_with_load", _("Robot offline with items on board")
+    ROBOT_ERROR = "robot_error", _("Robot reports an error")
+    EVENT_ANOMALY = "event_anomaly", _("Robot event that does not fit the delivery")
+    COMPARTMENT_LOCKED = "compartment_locked", _("Compartment kept locked after wrong PINs")
+    UNLOAD_TIMEOUT = "unload_timeout", _("Nobody unloaded a robot waiting at a drop-off")
+    UNATTENDED = "unattended", _("Robot moved on from a drop-off nobody unloaded")
+    DEADLINE_AT_RISK = "deadline_at_risk", _("Delivery will be late")
+    RESOURCE_OUT_OF_SERVICE = (
+        "resource_out_of_service",
+        _("Elevator, door or corridor out of service"),
+    )
+    FIRE_ALARM = "fire_alarm", _("Fire alarm: robots stopped, no lift granted, deliveries held")
+    ROBOT_STUCK = "robot_stuck", _("Robot reports moving but makes no progress")
 
 
 class AlertQuerySet(models.QuerySet):
