@@ -9,6 +9,7 @@ from datetime import datetime, timedelta
 
 from django.db.models import Case, IntegerField, Prefetch, Q, QuerySet, Value, When
 from django.utils import timezone
+from django.utils.translation import gettext
 
 from boards.choices import EventType
 from boards.models import RobotEvent
@@ -292,20 +293,25 @@ def task_disruption(task: Task, given_back: list[TaskTransition]) -> tuple[str, 
         return "", False
     robot = task.robot if task.status in ROUTE_STATUSES else None
     if robot is not None and robot.fault_at is not None:
-        return f"{robot.code} reported a fault: operators are alerted", True
+        return gettext("%(robot)s reported a fault: operators are alerted") % {
+            "robot": robot.code
+        }, True
     if robot is not None and robot.paused_by_operator:
-        return "Held by an operator", True
+        return gettext("Held by an operator"), True
     if robot is not None and robot.presence == Presence.OFFLINE:
-        return f"{robot.code} is offline: operators are alerted", True
+        return gettext("%(robot)s is offline: operators are alerted") % {"robot": robot.code}, True
     if task.unattended_at is not None:
-        return "Nobody unloaded it at the drop-off: on its way back, not delivered", False
+        return gettext("Nobody unloaded it at the drop-off: on its way back, not delivered"), False
     if not given_back:
         return "", False
-    why = given_back[-1].note or "Taken from its robot"
+    why = gettext(given_back[-1].note) if given_back[-1].note else gettext("Taken from its robot")
     if robot is not None:
-        return f"{why}: reassigned to {robot.code}", False
+        return gettext("%(why)s: reassigned to %(robot)s") % {
+            "why": why,
+            "robot": robot.code,
+        }, False
     if task.status == TaskStatus.DUE:
-        return f"{why}: waiting for another robot", False
+        return gettext("%(why)s: waiting for another robot") % {"why": why}, False
     return "", False
 
 
