@@ -16,6 +16,7 @@ from boards.models import RobotEvent
 from robots.choices import Presence, WaypointKind
 from robots.mapcache import site_map, waypoint_by_id
 from robots.models import Robot, Site, Waypoint
+from robots.names import place_label
 from robots.selectors import robot_position, waypoint_code
 from scheduling.allocator import RobotRoute, Stop, TaskStops
 from scheduling.choices import (
@@ -356,14 +357,15 @@ def _schedule_row(site: Site, task: Task) -> ScheduleRow:
 
 def _label(site: Site, stop: TaskStop) -> str:
     waypoint = waypoint_by_id(site, stop.waypoint_id)
-    return waypoint.label if waypoint else "?"
+    return place_label(waypoint) if waypoint else "?"
 
 
 def stations_for_site(*, site: Site) -> list[tuple[str, str]]:
     """(code, name) of the stations nurses can pick, by name (from the cached map)."""
     stations = site_map(site).codes_of_kind(WaypointKind.STATION)
     waypoints = site_map(site).waypoints
-    return sorted(((code, waypoints[code].label) for code in stations), key=lambda s: s[1])
+    named = ((code, place_label(waypoints[code])) for code in stations)
+    return sorted(named, key=lambda s: s[1])
 
 
 def tasks_by_robot(*, robots: Iterable[Robot]) -> dict[int, list[Task]]:
@@ -401,7 +403,7 @@ def robot_plan(*, robot: Robot) -> PlanView | None:
     places = site_map(robot.site).waypoints
 
     def place(code: str) -> str:
-        return places[code].label if code in places else code
+        return place_label(places[code]) if code in places else code
 
     stops = [
         PlanStop(

@@ -403,6 +403,9 @@
     }
     $("wp-code").value = wp.code;
     $("wp-name").value = wp.name || "";
+    for (const input of document.querySelectorAll("[data-name-language]")) {
+      input.value = (wp.names || {})[input.dataset.nameLanguage] || "";
+    }
     $("wp-kind").value = wp.kind || "plain";
     $("wp-x").value = wp.x;
     $("wp-y").value = wp.y;
@@ -665,6 +668,27 @@
         delete wp.name;
       } else {
         wp[key] = value;
+      }
+      changed();
+      renderAll();
+    });
+  }
+
+  // A name per language (the site file's `names`); an emptied one is taken away.
+  for (const input of document.querySelectorAll("[data-name-language]")) {
+    input.addEventListener("change", () => {
+      const wp = findWaypoint(selected);
+      const names = { ...(wp.names || {}) };
+      const language = input.dataset.nameLanguage;
+      if (input.value.trim()) {
+        names[language] = input.value.trim();
+      } else {
+        delete names[language];
+      }
+      if (Object.keys(names).length) {
+        wp.names = names;
+      } else {
+        delete wp.names;
       }
       changed();
       renderAll();
