@@ -4,6 +4,7 @@ resource per language; pages show the viewer's language, robots and the API the 
 import copy
 
 import pytest
+from django.test import Client
 
 from maps.diff import map_diff
 from maps.documents import site_document
@@ -54,9 +55,9 @@ def test_the_schedule_names_the_drop_off_in_korean(site, nurse):
     assert KOREAN_LAB in page.content.decode()
 
 
-def test_the_api_keeps_the_default_name_and_the_code(site, nurse):
+def test_the_api_keeps_the_default_name_and_the_code(site, staff):
     task = order_task(site, dropoffs=("2F-LAB",))
-    client = logged_in(nurse)
+    client = Client(HTTP_AUTHORIZATION=f"Bearer {staff.api_token_plain}")
 
     answer = client.get(f"/api/v1/tasks/{task.code}", HTTP_ACCEPT_LANGUAGE="ko").json()
 
@@ -93,7 +94,8 @@ def test_names_go_out_with_the_site_file_and_come_back_unchanged(site):
 def test_a_changed_name_in_one_language_is_a_change_to_review(site):
     live = site_document(site)
     draft = copy.deepcopy(live)
-    lab = next(wp for wp in draft["floors"][1]["waypoints"] if wp["code"] == "2F-LAB")
+    waypoints = [wp for floor in draft["floors"] for wp in floor["waypoints"]]
+    lab = next(wp for wp in waypoints if wp["code"] == "2F-LAB")
     lab["names"]["ko"] = "검체 접수"
 
     changes = map_diff(live, draft).changes
