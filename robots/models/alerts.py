@@ -4,6 +4,7 @@ from django.db.models import Q
 from django.utils import timezone
 from django.utils.translation import gettext_lazy as _
 
+from core.said import said_text
 from robots.models.fleet import Robot
 from robots.models.map import Resource, Site
 
@@ -40,7 +41,10 @@ class Alert(models.Model):
     key = models.CharField(
         max_length=200, help_text="one open alert per key: raising it again changes nothing"
     )
-    message = models.TextField()
+    message = models.TextField(help_text="in English, for the API, webhooks and logs")
+    words = models.JSONField(
+        null=True, blank=True, help_text="the message to show in each reader's language (core/said)"
+    )
     robot = models.ForeignKey(Robot, null=True, blank=True, on_delete=models.SET_NULL)
     resource = models.ForeignKey(Resource, null=True, blank=True, on_delete=models.SET_NULL)
     task = models.CharField(max_length=32, blank=True, help_text="task code, if about one")
@@ -62,3 +66,8 @@ class Alert(models.Model):
 
     def __str__(self):
         return f"{self.get_kind_display()}: {self.message}"
+
+    @property
+    def text(self) -> str:
+        """The message in the reader's language."""
+        return said_text(self.words, self.message)

@@ -7,9 +7,12 @@ in the same response. Unknown task codes and stops refuse the whole heartbeat (4
 from dataclasses import dataclass
 from datetime import datetime
 
+from django.utils.translation import gettext_noop
+
 from boards.choices import EventType, MessageType
 from boards.models import BoardMessage, RobotEvent
 from boards.services import AppliedHeartbeat, HeartbeatRejected
+from core.said import Said
 from robots.alerts import alert_raise
 from robots.models import AlertKind, Robot
 from scheduling.choices import (
@@ -275,17 +278,28 @@ def _failed(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> bool:
         task_give_back(
             task, beat.robot, beat.now, avoid=True, cause=Cause.ROBOT_FAULT, event=event, note=note
         )
-        outcome = "given to another robot"
+        outcome = Said(gettext_noop("given to another robot"))
     else:
         task.failed_at, task.eta = beat.now, None
         fields = ["failed_at", "eta"]
         task_move(task, TaskStatus.FAILED, at=beat.now, fields=fields, note=reason, **why)
-        outcome = "items still on board" if _loaded_any(task) else "it had failed before"
+        outcome = Said(
+            gettext_noop("items still on board")
+            if _loaded_any(task)
+            else gettext_noop("it had failed before")
+        )
     alert_raise(
         site_id=task.site_id,
         kind=AlertKind.TASK_FAILED,
         key=f"task-failed:{task.code}",
-        message=f"{task.code} ({task.contents}) failed on {beat.robot.code}{because} ({outcome})",
+        message=Said(
+            gettext_noop("%(code)s (%(contents)s) failed on %(robot)s%(because)s (%(outcome)s)"),
+            code=task.code,
+            contents=task.contents,
+            robot=beat.robot.code,
+            because=because,
+            outcome=outcome,
+        ),
         robot=beat.robot,
         task=task.code,
     )

@@ -3,6 +3,9 @@ a robot an operator sends back to its dock (scheduling.services.operator)."""
 
 from datetime import datetime
 
+from django.utils.translation import gettext_noop
+
+from core.said import Said
 from robots.alerts import alert_raise
 from robots.models import AlertKind, Robot
 from scheduling.choices import ROUTE_STATUSES, Cause, TaskStatus
@@ -80,7 +83,9 @@ def _alert_loaded(robot: Robot, tasks: list[Task]) -> None:
         site_id=robot.site_id,
         kind=AlertKind.OFFLINE_WITH_LOAD,
         key=f"offline-with-load:{robot.code}",
-        message=f"{robot.code} went offline carrying {codes}",
+        message=Said(
+            gettext_noop("%(robot)s went offline carrying %(codes)s"), robot=robot.code, codes=codes
+        ),
         robot=robot,
         task=tasks[0].code,
     )

@@ -98,7 +98,7 @@ def alert_payload(alert) -> dict:
     return {
         "id": alert.pk,
         "kind": alert.kind,
-        "message": alert.message,
+        "message": alert.text,
         "robot": alert.robot.code if alert.robot else None,
         "task": alert.task or None,
         "raised_at": alert.raised_at.isoformat(),
