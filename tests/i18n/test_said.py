@@ -26,12 +26,12 @@ def test_said_words_come_back_from_json_and_speak_each_language():
 
 
 def test_an_alert_reads_korean_on_a_korean_page_and_english_in_its_message(site, operator):
-    lift = Resource.objects.get(site=site, code="E1")
+    lift = Resource.objects.get(site=site, code="ELEV")
 
     resource_take_out_of_service(resource=lift, reason="점검", actor=operator)
 
     alert = Alert.objects.get()
-    assert alert.message.startswith("E1 is out of service by park: 점검. Robots go another way")
+    assert alert.message.startswith("ELEV is out of service by park: 점검. Robots go another way")
     page = logged_in(operator).get("/fleet/", HTTP_ACCEPT_LANGUAGE="ko").content.decode()
-    assert "park 님이 E1 사용을 중지함: 점검." in page
+    assert "park 님이 ELEV 사용을 중지함: 점검." in page
     assert "is out of service" not in page
