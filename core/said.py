@@ -46,6 +46,16 @@ class Said:
         return cls(stored["msgid"], **values)
 
 
+def in_english(text: "str | Said") -> str:
+    """What is kept for programs and logs: the English of Said words, or the text itself."""
+    return text.in_english() if isinstance(text, Said) else text
+
+
+def words_of(text: "str | Said") -> dict | None:
+    """What is stored to say `text` later in any language; None for plain text."""
+    return text.as_json() if isinstance(text, Said) else None
+
+
 def said_text(words: dict | None, english: str) -> str:
     """What stored `words` say in the active language; `english` when there are none."""
     return str(Said.from_json(words)) if words else english

@@ -4,7 +4,7 @@ from django.db import IntegrityError, transaction
 from django.utils import timezone
 
 from core import changes
-from core.said import Said
+from core.said import Said, in_english, words_of
 from robots.models import Alert
 
 
@@ -29,8 +29,8 @@ def alert_raise(
                 site_id=site_id,
                 kind=kind,
                 key=key,
-                message=message.in_english() if isinstance(message, Said) else message,
-                words=message.as_json() if isinstance(message, Said) else None,
+                message=in_english(message),
+                words=words_of(message),
                 robot=robot,
                 resource=resource,
                 task=task,

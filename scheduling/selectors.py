@@ -236,14 +236,16 @@ def history_in_words(task: Task) -> list[tuple[TaskTransition, str]]:
     an assignment after a give-back says why ("R1 went offline: reassigned to R3")."""
     lines, given_back = [], None
     for entry in task.history.all():
-        note = entry.note
+        note = entry.text
         if _is_give_back(entry):
             given_back = entry
         elif entry.cause == Cause.ALLOCATION and entry.robot is not None:
             if given_back is not None:
-                note = f"{given_back.note or 'Taken from its robot'}: reassigned to {entry.robot}"
+                why = given_back.text or gettext("Taken from its robot")
+                said = gettext("%(why)s: reassigned to %(robot)s")
+                note = said % {"why": why, "robot": entry.robot}
             else:
-                note = note or f"Given to {entry.robot}"
+                note = note or gettext("Given to %(robot)s") % {"robot": entry.robot}
             given_back = None
         lines.append((entry, note))
     return lines
@@ -305,7 +307,7 @@ def task_disruption(task: Task, given_back: list[TaskTransition]) -> tuple[str, 
         return gettext("Nobody unloaded it at the drop-off: on its way back, not delivered"), False
     if not given_back:
         return "", False
-    why = gettext(given_back[-1].note) if given_back[-1].note else gettext("Taken from its robot")
+    why = given_back[-1].text or gettext("Taken from its robot")
     if robot is not None:
         return gettext("%(why)s: reassigned to %(robot)s") % {
             "why": why,

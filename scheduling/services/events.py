@@ -128,7 +128,7 @@ def _plan_acked(beat: _Heartbeat, message: BoardMessage) -> None:
     for code in _plan_tasks(message):
         task = beat.tasks.get(code)
         if task and _holds(beat, task) and task.status == TaskStatus.ASSIGNED:
-            note = f"{beat.robot.code} has it in its plan"
+            note = Said(gettext_noop("%(robot)s has it in its plan"), robot=beat.robot.code)
             _acknowledge(beat, task, cause=Cause.ROBOT_ACK, robot=beat.robot, note=note)
 
 
@@ -274,7 +274,11 @@ def _failed(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> bool:
     reason = str(event.data.get("reason") or event.data.get("error") or "")[:200]
     because = f": {reason}" if reason else ""
     if not _loaded_any(task) and not _failed_before(task):
-        note = f"{beat.robot.code} could not do it{because}"
+        note = Said(
+            gettext_noop("%(robot)s could not do it%(because)s"),
+            robot=beat.robot.code,
+            because=because,
+        )
         task_give_back(
             task, beat.robot, beat.now, avoid=True, cause=Cause.ROBOT_FAULT, event=event, note=note
         )

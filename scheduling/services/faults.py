@@ -57,10 +57,15 @@ def robot_fault(*, robot: Robot, at: datetime) -> int:
     robot.fault_at = at
     robot.save(update_fields=["fault_at"])
     what = "; ".join(robot.errors or []) or "no reason given"
-    reason = f"{robot.code} reported a fault ({what[:120]})"
+    reason = Said(
+        gettext_noop("%(robot)s reported a fault (%(what)s)"), robot=robot.code, what=what[:120]
+    )
     given_back, loaded = give_back_unloaded(robot, at, reason=reason, cause=Cause.ROBOT_FAULT)
     _alert_fault(robot, what, given_back, loaded)
-    note = f"{reason}: the items stay on board until an operator sees to it"
+    note = Said(
+        gettext_noop("%(reason)s: the items stay on board until an operator sees to it"),
+        reason=reason,
+    )
     for task in loaded:
         task_record(task, old=task.status, at=at, cause=Cause.ROBOT_FAULT, robot=robot, note=note)
     robot_publish(robot=robot)
