@@ -1,5 +1,6 @@
 from django import forms
 from django.utils import timezone
+from django.utils.translation import gettext_lazy as _
 
 from audit.choices import Kind
 from core.dates import date_out_of_range
@@ -11,11 +12,11 @@ class EntryFilterForm(forms.Form):
     """The auditors' filters; `sites` are those the reader may see. An export needs both days
     and at most MAX_EXPORT_DAYS of them."""
 
-    person = forms.CharField(required=False, max_length=150, label="Person (user name)")
-    site = forms.ChoiceField(required=False, label="Site")
-    kind = forms.ChoiceField(required=False, label="What", choices=[("", "anything")])
-    start = forms.DateField(required=False, label="From")
-    end = forms.DateField(required=False, label="To")
+    person = forms.CharField(required=False, max_length=150, label=_("Person (user name)"))
+    site = forms.ChoiceField(required=False, label=_("Site"))
+    kind = forms.ChoiceField(required=False, label=_("What"), choices=[("", _("anything"))])
+    start = forms.DateField(required=False, label=_("From"))
+    end = forms.DateField(required=False, label=_("To"))
 
     def __init__(self, data, *, sites, export: bool = False):
         super().__init__(data)
@@ -42,9 +43,9 @@ class EntryFilterForm(forms.Form):
                 self.add_error(name, why)
         start, end = cleaned.get("start"), cleaned.get("end")
         if start and end and end < start:
-            self.add_error("end", "is before From")
+            self.add_error("end", _("is before From"))
         elif self.export and start and end and (end - start).days >= MAX_EXPORT_DAYS:
-            self.add_error("end", f"at most {MAX_EXPORT_DAYS} days after From")
+            self.add_error("end", _("at most %(days)d days after From") % {"days": MAX_EXPORT_DAYS})
         return cleaned
 
     def filters(self) -> dict:

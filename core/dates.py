@@ -4,6 +4,8 @@ a far-future date is refused naming its parameter, never a 500."""
 
 from datetime import date, timedelta
 
+from django.utils.translation import gettext
+
 EARLIEST = date(2000, 1, 1)
 AHEAD = timedelta(days=366)
 
@@ -13,4 +15,5 @@ def date_out_of_range(value: date, *, today: date) -> str | None:
     latest = today + AHEAD
     if EARLIEST <= value <= latest:
         return None
-    return f"must be between {EARLIEST.isoformat()} and {latest.isoformat()}"
+    said = gettext("must be between %(earliest)s and %(latest)s")
+    return said % {"earliest": EARLIEST.isoformat(), "latest": latest.isoformat()}

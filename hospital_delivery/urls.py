@@ -2,6 +2,7 @@ from django.contrib import admin
 from django.contrib.auth import views as auth_views
 from django.contrib.auth.decorators import login_required
 from django.urls import include, path
+from django.views.i18n import JavaScriptCatalog
 from drf_spectacular.views import SpectacularAPIView, SpectacularSwaggerSplitView
 
 from accounts.views import SignOutView
@@ -15,6 +16,8 @@ api_docs = SpectacularSwaggerSplitView.as_view(
 urlpatterns = [
     path("admin/", admin.site.urls),
     path("healthz", healthz.healthz, name="healthz"),
+    # The pages' scripts say their words in the page's language (gettext, interpolate).
+    path("jsi18n/", JavaScriptCatalog.as_view(), name="javascript-catalog"),
     path("api/v1/", include("boards.urls")),
     path("api/v1/", include("robots.urls")),
     path("api/v1/", include("scheduling.urls")),

@@ -104,6 +104,7 @@ def _floors(diff: MapDiff, old: dict, new: dict) -> None:
         if before.get("name", "") != after.get("name", ""):
             detail = f"{before.get('name', '')!r} → {after.get('name', '')!r}"
             diff.changes.append(Change("floor", "renamed", code, detail))
+        _names_changes(diff, "floor", code, before, after)
         if before.get("level") != after.get("level"):
             detail = f"level {before.get('level')} → {after.get('level')}"
             diff.changes.append(Change("floor", "changed", code, detail))
@@ -152,6 +153,15 @@ def _comparable(value):
     return repr(value)
 
 
+def _names_changes(diff: MapDiff, what: str, code: str, before: dict, after: dict) -> None:
+    """A name in one language given, changed or taken away."""
+    old, new = before.get("names") or {}, after.get("names") or {}
+    for language in sorted(old.keys() | new.keys()):
+        if old.get(language) != new.get(language):
+            detail = f"{language}: {old.get(language, '')!r} → {new.get(language, '')!r}"
+            diff.changes.append(Change(what, "renamed", code, detail))
+
+
 def _where(wp: dict) -> str:
     kind = wp.get("kind", "plain")
     return f"{kind} on {wp['floor']} at ({wp.get('x')}, {wp.get('y')})"
@@ -164,6 +174,7 @@ def _waypoint_changes(diff: MapDiff, code: str, before: dict, after: dict) -> No
     if before.get("name", "") != after.get("name", ""):
         detail = f"{before.get('name', '')!r} → {after.get('name', '')!r}"
         diff.changes.append(Change("waypoint", "renamed", code, detail))
+    _names_changes(diff, "waypoint", code, before, after)
     if before.get("kind", "plain") != after.get("kind", "plain"):
         detail = f"{before.get('kind', 'plain')} → {after.get('kind', 'plain')}"
         diff.changes.append(Change("waypoint", "changed", code, detail))

@@ -40,6 +40,8 @@ def _floor(
     entry = {"code": floor.code, "level": floor.level}
     if floor.name:
         entry["name"] = floor.name
+    if floor.names:
+        entry["names"] = floor.names
     entry["waypoints"] = [_waypoint(wp) for wp in here]
     entry["edges"] = [_edge(edge, by_id) for edge in edges]
     return entry
@@ -49,6 +51,8 @@ def _waypoint(wp: Waypoint) -> dict:
     entry = {"code": wp.code, "x": wp.x, "y": wp.y, "kind": wp.kind}
     if wp.name:
         entry["name"] = wp.name
+    if wp.names:
+        entry["names"] = wp.names
     return entry
 
 
@@ -83,6 +87,8 @@ def _resource(
     entry = {"code": resource.code, "kind": resource.kind, "capacity": resource.capacity}
     if resource.name:
         entry["name"] = resource.name
+    if resource.names:
+        entry["names"] = resource.names
     stops = sorted(stops, key=lambda wp: wp.code)
     if resource.kind == ResourceKind.ELEVATOR:
         entry["stops"] = {floors[wp.floor_id]: wp.code for wp in stops}

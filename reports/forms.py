@@ -2,6 +2,7 @@ from datetime import timedelta
 
 from django import forms
 from django.utils import timezone
+from django.utils.translation import gettext_lazy as _
 
 from core.dates import date_out_of_range
 from robots.models import Site
@@ -17,8 +18,8 @@ class ReportForm(forms.Form):
     site = forms.ModelChoiceField(
         queryset=Site.objects.none(), to_field_name="code", required=False
     )
-    date_from = forms.DateField(required=False, label="From")
-    date_to = forms.DateField(required=False, label="To")
+    date_from = forms.DateField(required=False, label=_("From"))
+    date_to = forms.DateField(required=False, label=_("To"))
 
     def __init__(self, *args, sites: list[Site], **kwargs):
         super().__init__(*args, **kwargs)
@@ -50,9 +51,11 @@ class ReportForm(forms.Form):
             days=DEFAULT_DAYS - 1
         )
         if data["date_from"] > data["date_to"]:
-            self.add_error("date_from", "must not be after To")
+            self.add_error("date_from", _("must not be after To"))
         elif data["date_to"] - data["date_from"] > LONGEST:
-            self.add_error("date_from", f"a report covers at most {LONGEST.days} days")
+            self.add_error(
+                "date_from", _("a report covers at most %(days)d days") % {"days": LONGEST.days}
+            )
         if data.get("site") is None:
             data["site"] = self.sites[0]
         return data

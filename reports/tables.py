@@ -6,6 +6,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime
 
+from django.utils.text import format_lazy
+from django.utils.translation import gettext_lazy as _
+
 from reports.histograms import percentile
 from reports.rollups import period_figures
 from reports.selectors import TURNAROUND_WIDTH, WAIT_WIDTH, Period
@@ -28,7 +31,7 @@ GROUP_OF = {activity: group for group, members in ACTIVITY_GROUPS.items() for ac
 @dataclass(frozen=True)
 class Table:
     key: str  # also the name of the figure it shows (reports/selectors.py FIGURES)
-    title: str
+    title: str  # lazily translated, as the headings
     columns: list[tuple[str, str]]  # (row key, heading)
     rows: Callable[[Period, dict], list[dict]]  # the period's summed figure -> rows
     chart: str  # Chart.js type
@@ -122,31 +125,31 @@ def failure_rows(period: Period, counts: dict) -> list[dict]:
 def _turnaround_columns(key: str, heading: str) -> list[tuple[str, str]]:
     return [
         (key, heading),
-        ("deliveries", "Deliveries"),
-        ("cancelled", "Cancelled"),
-        ("pickup_p50_min", "Request → pick-up, median (min)"),
-        ("pickup_p90_min", "Request → pick-up, p90 (min)"),
-        ("dropoff_p50_min", "Request → drop-off, median (min)"),
-        ("dropoff_p90_min", "Request → drop-off, p90 (min)"),
-        ("on_time_pct", "On time (%)"),
+        ("deliveries", _("Deliveries")),
+        ("cancelled", _("Cancelled")),
+        ("pickup_p50_min", _("Request → pick-up, median (min)")),
+        ("pickup_p90_min", _("Request → pick-up, p90 (min)")),
+        ("dropoff_p50_min", _("Request → drop-off, median (min)")),
+        ("dropoff_p90_min", _("Request → drop-off, p90 (min)")),
+        ("on_time_pct", _("On time (%)")),
     ]
 
 
 _UTILISATION_LABELS = {
-    "moving": "Moving",
-    "waiting_resource": "Waiting for resources",
-    "loading_unloading": "Loading and unloading",
-    "idle": "Idle",
-    "charging": "Charging",
-    "error": "Error",
-    "offline": "Offline or unreachable",
+    "moving": _("Moving"),
+    "waiting_resource": _("Waiting for resources"),
+    "loading_unloading": _("Loading and unloading"),
+    "idle": _("Idle"),
+    "charging": _("Charging"),
+    "error": _("Error"),
+    "offline": _("Offline or unreachable"),
 }
 
 TABLES = [
     Table(
         "per_day",
-        "Deliveries per day",
-        [("day", "Day"), ("deliveries", "Deliveries")],
+        _("Deliveries per day"),
+        [("day", _("Day")), ("deliveries", _("Deliveries"))],
         per_day_rows,
         chart="bar",
         label="day",
@@ -154,8 +157,8 @@ TABLES = [
     ),
     Table(
         "per_hour",
-        "Deliveries by hour of day",
-        [("hour", "Hour"), ("deliveries", "Deliveries")],
+        _("Deliveries by hour of day"),
+        [("hour", _("Hour")), ("deliveries", _("Deliveries"))],
         per_hour_rows,
         chart="bar",
         label="hour",
@@ -163,8 +166,8 @@ TABLES = [
     ),
     Table(
         "by_priority",
-        "Turnaround by priority",
-        _turnaround_columns("priority", "Priority"),
+        _("Turnaround by priority"),
+        _turnaround_columns("priority", _("Priority")),
         turnaround_rows("priority"),
         chart="bar",
         label="priority",
@@ -172,8 +175,8 @@ TABLES = [
     ),
     Table(
         "by_ward",
-        "Turnaround by ward (drop-off station)",
-        _turnaround_columns("ward", "Ward"),
+        _("Turnaround by ward (drop-off station)"),
+        _turnaround_columns("ward", _("Ward")),
         turnaround_rows("ward"),
         chart="bar",
         label="ward",
@@ -181,10 +184,13 @@ TABLES = [
     ),
     Table(
         "utilisation",
-        "Robot utilisation (hours)",
-        [("robot", "Robot")]
+        _("Robot utilisation (hours)"),
+        [("robot", _("Robot"))]
         + [
-            (f"{group}{unit}", f"{_UTILISATION_LABELS[group]} ({'h' if unit == '_h' else '%'})")
+            (
+                f"{group}{unit}",
+                format_lazy("{} ({})", _UTILISATION_LABELS[group], unit[1:].replace("pct", "%")),
+            )
             for group in ACTIVITY_GROUPS
             for unit in ("_h", "_pct")
         ],
@@ -196,13 +202,13 @@ TABLES = [
     ),
     Table(
         "resource_waits",
-        "Waiting for elevators, doors and corridors",
+        _("Waiting for elevators, doors and corridors"),
         [
-            ("resource", "Resource"),
-            ("kind", "Kind"),
-            ("requests", "Requests"),
-            ("wait_p50_s", "Wait, median (s)"),
-            ("wait_p90_s", "Wait, p90 (s)"),
+            ("resource", _("Resource")),
+            ("kind", _("Kind")),
+            ("requests", _("Requests")),
+            ("wait_p50_s", _("Wait, median (s)")),
+            ("wait_p90_s", _("Wait, p90 (s)")),
         ],
         resource_wait_rows,
         chart="bar",
@@ -211,8 +217,8 @@ TABLES = [
     ),
     Table(
         "failures",
-        "Failures, cancellations and alerts by cause",
-        [("what", "What"), ("cause", "Cause"), ("count", "Count")],
+        _("Failures, cancellations and alerts by cause"),
+        [("what", _("What")), ("cause", _("Cause")), ("count", _("Count"))],
         failure_rows,
         chart="bar",
         label="cause",

@@ -16,8 +16,10 @@ from datetime import datetime
 from django.db import transaction
 from django.db.models import F
 from django.utils import timezone
+from django.utils.translation import gettext_noop
 
 from core import changes
+from core.said import Said
 from resources.hooks import availability_changed
 from resources.leases import (
     out_of_service_tell,
@@ -29,6 +31,14 @@ from robots.alerts import alert_raise, alerts_close
 from robots.models import AlertKind, Resource, Site
 
 REASON_MAX = 200
+OUT_OF_SERVICE = gettext_noop(
+    "%(code)s is out of service: %(reason)s. Robots go another way where there is one; "
+    "the others wait in its queue until it is back."
+)
+OUT_OF_SERVICE_BY = gettext_noop(
+    "%(code)s is out of service by %(user)s: %(reason)s. Robots go another way where there is "
+    "one; the others wait in its queue until it is back."
+)
 
 
 @transaction.atomic
@@ -44,15 +54,16 @@ def resource_take_out_of_service(
     resource.out_of_service_reason = reason[:REASON_MAX]
     resource.save(update_fields=["out_of_service_since", "out_of_service_reason"])
     _changed(resource, now=now)
-    who = f" by {actor.get_username()}" if actor is not None else ""
+    said = {"code": resource.code, "reason": resource.out_of_service_reason}
+    if actor is not None:
+        message = Said(OUT_OF_SERVICE_BY, **said, user=actor.get_username())
+    else:
+        message = Said(OUT_OF_SERVICE, **said)
     alert_raise(
         site_id=resource.site_id,
         kind=AlertKind.RESOURCE_OUT_OF_SERVICE,
         key=_alert_key(resource),
-        message=(
-            f"{resource.code} is out of service{who}: {resource.out_of_service_reason}. Robots "
-            "go another way where there is one; the others wait in its queue until it is back."
-        ),
+        message=message,
         resource=resource,
     )
     return True

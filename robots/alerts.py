@@ -4,6 +4,7 @@ from django.db import IntegrityError, transaction
 from django.utils import timezone
 
 from core import changes
+from core.said import Said, in_english, words_of
 from robots.models import Alert
 
 
@@ -12,12 +13,13 @@ def alert_raise(
     site_id: int,
     kind: str,
     key: str,
-    message: str,
+    message: str | Said,
     robot=None,
     resource=None,
     task: str = "",
 ) -> Alert:
-    """Raise an alert unless one with the same key is still open; returns the open one."""
+    """Raise an alert unless one with the same key is still open; returns the open one.
+    A Said message is shown in each reader's language; its English is kept as `message`."""
     existing = Alert.objects.open().filter(key=key).first()
     if existing is not None:
         return existing
@@ -27,7 +29,8 @@ def alert_raise(
                 site_id=site_id,
                 kind=kind,
                 key=key,
-                message=message,
+                message=in_english(message),
+                words=words_of(message),
                 robot=robot,
                 resource=resource,
                 task=task,

@@ -3,16 +3,16 @@ from django.utils.translation import gettext_lazy as _
 
 
 class WaypointKind(models.TextChoices):
-    PLAIN = "plain", "Plain"
-    STATION = "station", "Station"
-    DOCK = "dock", "Dock"
-    RESOURCE_WAIT = "resource_wait", "Resource waiting area"
+    PLAIN = "plain", _("Plain")
+    STATION = "station", _("Station")
+    DOCK = "dock", _("Dock")
+    RESOURCE_WAIT = "resource_wait", _("Resource waiting area")
 
 
 class ResourceKind(models.TextChoices):
-    ELEVATOR = "elevator", "Elevator"
-    DOOR = "door", "Automatic door"
-    CORRIDOR = "corridor", "Narrow corridor"
+    ELEVATOR = "elevator", _("Elevator")
+    DOOR = "door", _("Automatic door")
+    CORRIDOR = "corridor", _("Narrow corridor")
 
 
 class RobotStatus(models.TextChoices):
@@ -45,15 +45,15 @@ class RobotProtocol(models.TextChoices):
     """How a robot talks to the server: our heartbeats, or VDA 5050 over MQTT (the vda5050
     bridge translates)."""
 
-    HEARTBEAT = "heartbeat", "Heartbeat (protocol v1)"
-    VDA5050 = "vda5050", "VDA 5050 over MQTT"
+    HEARTBEAT = "heartbeat", _("Heartbeat (protocol v1)")
+    VDA5050 = "vda5050", _("VDA 5050 over MQTT")
 
 
 class VdaQuirk(models.TextChoices):
     """Deviations from VDA 5050 2.0 found in vehicles in the field, switched on per vehicle in
     the site file (its `vda5050.quirks`); the integrators' VDA 5050 page names who needs each."""
 
-    INSTANT_ACTIONS_FIELD = "instant_actions_field", "instantActions holds its list (1.1 name)"
+    INSTANT_ACTIONS_FIELD = "instant_actions_field", _("instantActions holds its list (1.1 name)")
     INIT_POSITION_AFTER_LIFT = (
         "init_position_after_lift",
         "initPosition at the lift's exit node (it keeps its map otherwise)",
@@ -63,11 +63,11 @@ class VdaQuirk(models.TextChoices):
 class EmergencyKind(models.TextChoices):
     """A state of the building in which robots stop their ordinary work."""
 
-    FIRE_ALARM = "fire_alarm", "Fire alarm"
+    FIRE_ALARM = "fire_alarm", _("Fire alarm")
 
 
 class EmergencySource(models.TextChoices):
     """Who started or ended an emergency mode."""
 
-    OPERATOR = "operator", "An operator, on the fleet page"
-    API = "api", "A building management system, over the REST API"
+    OPERATOR = "operator", _("An operator, on the fleet page")
+    API = "api", _("A building management system, over the REST API")

@@ -16,6 +16,7 @@ from robots.router import (
     MapWaypoint,
     Router,
     SiteMap,
+    names_tuple,
     site_map_build,
 )
 
@@ -75,7 +76,7 @@ def _ids(site: Site) -> tuple[SiteMap, dict[int, str], dict[int, str]]:
 
 def _load(site: Site) -> SiteMap:
     floors = [
-        MapFloor(id=f.id, code=f.code, level=f.level, name=f.name)
+        MapFloor(id=f.id, code=f.code, level=f.level, name=f.name, names=names_tuple(f.names))
         for f in Floor.objects.filter(site=site)
     ]
     waypoints = _waypoints(site, {f.id: f for f in floors})
@@ -103,6 +104,7 @@ def _waypoints(site: Site, floors_by_id: dict[int, MapFloor]) -> list[MapWaypoin
             level=floors_by_id[wp.floor_id].level,
             x=wp.x,
             y=wp.y,
+            names=names_tuple(wp.names),
         )
         for wp in Waypoint.objects.filter(site=site)
     ]
@@ -138,6 +140,7 @@ def _resources(site: Site, codes_by_id: dict[int, str]) -> list[MapResource]:
             seconds_per_floor=r.seconds_per_floor,
             overhead_seconds=r.overhead_seconds,
             waypoints=tuple(sorted(stops.get(r.id, []))),
+            names=names_tuple(r.names),
             out_of_service=r.out_of_service_since is not None,
         )
         for r in Resource.objects.filter(site=site)

@@ -24,6 +24,7 @@ class MapFloor:
     code: str
     level: int
     name: str = ""
+    names: tuple[tuple[str, str], ...] = ()  # per language (robots/names.py)
 
 
 @dataclass(frozen=True)
@@ -36,6 +37,7 @@ class MapWaypoint:
     level: int
     x: float
     y: float
+    names: tuple[tuple[str, str], ...] = ()  # per language (robots/names.py)
 
     @property
     def label(self) -> str:
@@ -62,6 +64,7 @@ class MapResource:
     overhead_seconds: float
     waypoints: tuple[str, ...]  # waiting waypoints; for an elevator, one per floor served
     out_of_service: bool = False  # routes avoid it where another way exists (Router)
+    names: tuple[tuple[str, str], ...] = ()  # per language (robots/names.py)
 
     @property
     def is_elevator(self) -> bool:
@@ -82,6 +85,7 @@ class SiteMap:
     elevator_stops: dict[str, dict[str, str]] = field(default_factory=dict)
     floor_names: dict[str, str] = field(default_factory=dict)
     availability_version: int = 0  # with map_version, what a cached map is keyed by
+    floor_names_by_language: dict[str, tuple[tuple[str, str], ...]] = field(default_factory=dict)
 
     @property
     def out_of_service(self) -> frozenset[str]:
@@ -121,6 +125,7 @@ def site_map_build(
         elevator_stops=_elevator_stops(resources_by_code.values(), waypoints_by_code),
         floor_names={f.code: f.name for f in floors},
         availability_version=availability_version,
+        floor_names_by_language={f.code: f.names for f in floors},
     )
 
 
@@ -161,7 +166,13 @@ def straight_line(a: MapWaypoint, b: MapWaypoint) -> float:
 def site_map_from_file(data: dict, *, site_id: int = 0, map_version: int = 0) -> SiteMap:
     """The SiteMap a valid site file describes; ids are synthetic (1, 2, ... in file order)."""
     floors = [
-        MapFloor(id=n, code=f["code"], level=f["level"], name=f.get("name", ""))
+        MapFloor(
+            id=n,
+            code=f["code"],
+            level=f["level"],
+            name=f.get("name", ""),
+            names=names_tuple(f.get("names")),
+        )
         for n, f in enumerate(data["floors"], start=1)
     ]
     waypoints = _file_waypoints(data)
@@ -189,6 +200,7 @@ def _file_waypoints(data: dict) -> dict[str, MapWaypoint]:
             level=floor["level"],
             x=float(wp["x"]),
             y=float(wp["y"]),
+            names=names_tuple(wp.get("names")),
         )
         for n, (floor, wp) in enumerate(raw, start=1)
     }
@@ -242,6 +254,7 @@ def _file_resources(resources: list[dict]) -> list[MapResource]:
             seconds_per_floor=float(r.get("seconds_per_floor", 0.0)),
             overhead_seconds=float(r.get("overhead_seconds", 0.0)),
             waypoints=tuple(r["stops"].values()) if r["kind"] == ELEVATOR else tuple(r["waiting"]),
+            names=names_tuple(r.get("names")),
         )
         for n, r in enumerate(resources, start=1)
     ]
@@ -416,3 +429,8 @@ def _steps_back(tree: _Tree, target: str) -> list[tuple[str, _Link]]:
 def _collapse(codes: list[str]) -> list[str]:
     """Drop immediate repeats: two guarded edges of one corridor in a row are one passage."""
     return [code for n, code in enumerate(codes) if n == 0 or codes[n - 1] != code]
+
+
+def names_tuple(value: Mapping[str, str] | None) -> tuple[tuple[str, str], ...]:
+    """A site file's `names` (per language) as sorted pairs: hashable, for the frozen parts."""
+    return tuple(sorted((value or {}).items()))

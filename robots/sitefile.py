@@ -21,6 +21,7 @@ from robots.choices import ResourceKind, RobotProtocol, VdaQuirk, WaypointKind
 from robots.models import Edge, Floor, Resource, ResourceWaypoint, Robot, Site, Waypoint
 from robots.models.fleet import ROBOT_CODE
 from robots.models.map import UNATTENDED_TO_PICKUP
+from robots.names import names_problem
 from robots.router import (
     DOCK,
     ELEVATOR,
@@ -218,6 +219,7 @@ FLOOR_FIELDS = {
     "code": _code(32),
     "level": _Field(int, required=True),
     "name": TEXT,
+    "names": _Field(dict),
     "waypoints": _Field(list, required=True),
     "edges": _Field(list),
 }
@@ -232,6 +234,7 @@ WAYPOINT_FIELDS = {
     "y": COORDINATE,
     "kind": _Field(str, choices=tuple(WaypointKind.values)),
     "name": TEXT,
+    "names": _Field(dict),
 }
 EDGE_FIELDS = {
     "from": _code(64),
@@ -243,6 +246,7 @@ RESOURCE_FIELDS = {
     "code": _code(64),
     "kind": _Field(str, required=True, choices=tuple(ResourceKind.values)),
     "name": TEXT,
+    "names": _Field(dict),
     "capacity": _Field(int, minimum=1, maximum=32767),
     "stops": _Field(dict),
     "seconds_per_floor": POSITIVE,
@@ -417,7 +421,7 @@ class _Validation:
             if key not in raw:
                 if spec.required:
                     self._problem(_at(path, key), "required")
-            elif problem := _field_problem(spec, raw[key]):
+            elif problem := _field_problem(spec, raw[key]) or _names_problem(key, raw[key]):
                 self._problem(_at(path, key), problem)
             else:
                 valid[key] = raw[key]
@@ -776,6 +780,10 @@ def _map_waypoint(wp: _Wp) -> MapWaypoint:
     )
 
 
+def _names_problem(key: str, value) -> str | None:
+    return names_problem(value) if key == "names" else None
+
+
 def _unknown_key(key, fields: dict) -> str:
     close = difflib.get_close_matches(str(key), list(fields), n=1)
     hint = f"did you mean '{close[0]}'?" if close else f"expected one of {', '.join(fields)}"
@@ -913,7 +921,13 @@ def _map_write(site: Site, plan: SiteMap) -> list[tuple[type[models.Model], list
 
 def _floor_rows(site: Site, plan: SiteMap) -> dict[str, dict]:
     return {
-        code: {"site_id": site.pk, "code": code, "level": level, "name": plan.floor_names[code]}
+        code: {
+            "site_id": site.pk,
+            "code": code,
+            "level": level,
+            "name": plan.floor_names[code],
+            "names": dict(plan.floor_names_by_language.get(code, ())),
+        }
         for code, level in plan.floors.items()
     }
 
@@ -925,6 +939,7 @@ def _waypoint_rows(site: Site, plan: SiteMap, floor_ids: dict[str, int]) -> dict
             "floor_id": floor_ids[wp.floor],
             "code": wp.code,
             "name": wp.name,
+            "names": dict(wp.names),
             "kind": wp.kind,
             "x": wp.x,
             "y": wp.y,
@@ -939,6 +954,7 @@ def _resource_rows(site: Site, plan: SiteMap) -> dict[str, dict]:
             "site_id": site.pk,
             "code": r.code,
             "name": r.name,
+            "names": dict(r.names),
             "kind": r.kind,
             "capacity": r.capacity,
             "seconds_per_floor": r.seconds_per_floor,

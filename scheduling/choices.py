@@ -34,9 +34,9 @@ class Priority(models.TextChoices):
     """How soon a delivery is needed; each has a due-by time (the site's default, or the
     request's own) and a weight in the allocator's objective."""
 
-    ROUTINE = "routine", "Routine"
-    URGENT = "urgent", "Urgent"
-    STAT = "stat", "STAT"
+    ROUTINE = "routine", _("Routine")
+    URGENT = "urgent", _("Urgent")
+    STAT = "stat", _("STAT")
 
 
 # Old names still accepted on the API: "normal" was routine's name before deadlines.
@@ -54,52 +54,52 @@ PRIORITY_ON_THE_WIRE = {
 
 
 class StopAction(models.TextChoices):
-    PICKUP = "pickup", "Pick-up"
-    DROPOFF = "dropoff", "Drop-off"
+    PICKUP = "pickup", _("Pick-up")
+    DROPOFF = "dropoff", _("Drop-off")
 
 
 class Cause(models.TextChoices):
     """Why a task changed (TaskTransition.cause)."""
 
-    REQUEST = "request", "Requested"
-    SCHEDULE = "schedule", "Periodic request"
-    SWEEP = "sweep", "Requested time reached"
-    UNLOADING = "unloading", "Nobody unloaded it in time"
-    ALLOCATION = "allocation", "Allocated"
-    ROBOT_ACK = "robot_ack", "Robot acknowledged its plan"
-    ROBOT_EVENT = "robot_event", "Reported by the robot"
-    ACK_TIMEOUT = "ack_timeout", "Not acknowledged in time"
-    PRESENCE = "presence", "Robot went offline"
-    USER = "user", "User"
-    ROBOT_FAULT = "robot_fault", "Robot fault"
-    ANOMALY = "anomaly", "Event out of order (ignored)"
+    REQUEST = "request", _("Requested")
+    SCHEDULE = "schedule", _("Periodic request")
+    SWEEP = "sweep", _("Requested time reached")
+    UNLOADING = "unloading", _("Nobody unloaded it in time")
+    ALLOCATION = "allocation", _("Allocated")
+    ROBOT_ACK = "robot_ack", _("Robot acknowledged its plan")
+    ROBOT_EVENT = "robot_event", _("Reported by the robot")
+    ACK_TIMEOUT = "ack_timeout", _("Not acknowledged in time")
+    PRESENCE = "presence", _("Robot went offline")
+    USER = "user", _("User")
+    ROBOT_FAULT = "robot_fault", _("Robot fault")
+    ANOMALY = "anomaly", _("Event out of order (ignored)")
 
 
 class OperatorActionKind(models.TextChoices):
     """What an operator can tell a robot (protocol v1 `action` message)."""
 
-    PAUSE = "pause", "Pause"
-    RESUME = "resume", "Resume"
-    RETURN_TO_DOCK = "return_to_dock", "Return to dock"
+    PAUSE = "pause", _("Pause")
+    RESUME = "resume", _("Resume")
+    RETURN_TO_DOCK = "return_to_dock", _("Return to dock")
 
 
 class ResourceActionKind(models.TextChoices):
     """What an operator can do to an elevator, door or corridor (resources/availability.py),
     and to the lift or door the server drives (building/services.py)."""
 
-    OUT_OF_SERVICE = "out_of_service", "Take out of service"
-    BACK_IN_SERVICE = "back_in_service", "Return to service"
-    HOLD_DOORS = "hold_doors", "Hold doors"
-    RELEASE_DOORS = "release_doors", "Let doors go"
-    SEND_CAR = "send_car", "Send car"
+    OUT_OF_SERVICE = "out_of_service", _("Take out of service")
+    BACK_IN_SERVICE = "back_in_service", _("Return to service")
+    HOLD_DOORS = "hold_doors", _("Hold doors")
+    RELEASE_DOORS = "release_doors", _("Let doors go")
+    SEND_CAR = "send_car", _("Send car")
 
 
 class MaintenanceActionKind(models.TextChoices):
     """An operator takes a robot out of service for maintenance, or returns it (or its time
     ends): scheduling/services/maintenance.py."""
 
-    MAINTENANCE = "maintenance", "Taken into maintenance"
-    RETURNED = "maintenance_end", "Returned from maintenance"
+    MAINTENANCE = "maintenance", _("Taken into maintenance")
+    RETURNED = "maintenance_end", _("Returned from maintenance")
 
 
 OPERATOR_ACTION_CHOICES = [

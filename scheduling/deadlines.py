@@ -3,6 +3,7 @@
 from datetime import datetime, timedelta
 
 from django.utils import timezone
+from django.utils.translation import gettext
 
 from robots.models import Site
 from scheduling.choices import PRIORITY_ALIASES, Priority
@@ -35,4 +36,5 @@ def lateness_note(*, eta: datetime | None, due_at: datetime | None) -> str:
     if late is None:
         return ""
     minutes = max(1, round(late.total_seconds() / 60))
-    return f"earliest drop-off {timezone.localtime(eta):%H:%M}, {minutes} min after it is due"
+    said = gettext("earliest drop-off %(time)s, %(minutes)d min after it is due")
+    return said % {"time": f"{timezone.localtime(eta):%H:%M}", "minutes": minutes}

@@ -9,12 +9,14 @@ from datetime import datetime, timedelta
 
 from django.db.models import Case, IntegerField, Prefetch, Q, QuerySet, Value, When
 from django.utils import timezone
+from django.utils.translation import gettext
 
 from boards.choices import EventType
 from boards.models import RobotEvent
 from robots.choices import Presence, WaypointKind
 from robots.mapcache import site_map, waypoint_by_id
 from robots.models import Robot, Site, Waypoint
+from robots.names import place_label
 from robots.selectors import robot_position, waypoint_code
 from scheduling.allocator import RobotRoute, Stop, TaskStops
 from scheduling.choices import (
@@ -234,14 +236,16 @@ def history_in_words(task: Task) -> list[tuple[TaskTransition, str]]:
     an assignment after a give-back says why ("R1 went offline: reassigned to R3")."""
     lines, given_back = [], None
     for entry in task.history.all():
-        note = entry.note
+        note = entry.text
         if _is_give_back(entry):
             given_back = entry
         elif entry.cause == Cause.ALLOCATION and entry.robot is not None:
             if given_back is not None:
-                note = f"{given_back.note or 'Taken from its robot'}: reassigned to {entry.robot}"
+                why = given_back.text or gettext("Taken from its robot")
+                said = gettext("%(why)s: reassigned to %(robot)s")
+                note = said % {"why": why, "robot": entry.robot}
             else:
-                note = note or f"Given to {entry.robot}"
+                note = note or gettext("Given to %(robot)s") % {"robot": entry.robot}
             given_back = None
         lines.append((entry, note))
     return lines
@@ -292,20 +296,25 @@ def task_disruption(task: Task, given_back: list[TaskTransition]) -> tuple[str, 
         return "", False
     robot = task.robot if task.status in ROUTE_STATUSES else None
     if robot is not None and robot.fault_at is not None:
-        return f"{robot.code} reported a fault: operators are alerted", True
+        return gettext("%(robot)s reported a fault: operators are alerted") % {
+            "robot": robot.code
+        }, True
     if robot is not None and robot.paused_by_operator:
-        return "Held by an operator", True
+        return gettext("Held by an operator"), True
     if robot is not None and robot.presence == Presence.OFFLINE:
-        return f"{robot.code} is offline: operators are alerted", True
+        return gettext("%(robot)s is offline: operators are alerted") % {"robot": robot.code}, True
     if task.unattended_at is not None:
-        return "Nobody unloaded it at the drop-off: on its way back, not delivered", False
+        return gettext("Nobody unloaded it at the drop-off: on its way back, not delivered"), False
     if not given_back:
         return "", False
-    why = given_back[-1].note or "Taken from its robot"
+    why = given_back[-1].text or gettext("Taken from its robot")
     if robot is not None:
-        return f"{why}: reassigned to {robot.code}", False
+        return gettext("%(why)s: reassigned to %(robot)s") % {
+            "why": why,
+            "robot": robot.code,
+        }, False
     if task.status == TaskStatus.DUE:
-        return f"{why}: waiting for another robot", False
+        return gettext("%(why)s: waiting for another robot") % {"why": why}, False
     return "", False
 
 
@@ -350,14 +359,15 @@ def _schedule_row(site: Site, task: Task) -> ScheduleRow:
 
 def _label(site: Site, stop: TaskStop) -> str:
     waypoint = waypoint_by_id(site, stop.waypoint_id)
-    return waypoint.label if waypoint else "?"
+    return place_label(waypoint) if waypoint else "?"
 
 
 def stations_for_site(*, site: Site) -> list[tuple[str, str]]:
     """(code, name) of the stations nurses can pick, by name (from the cached map)."""
     stations = site_map(site).codes_of_kind(WaypointKind.STATION)
     waypoints = site_map(site).waypoints
-    return sorted(((code, waypoints[code].label) for code in stations), key=lambda s: s[1])
+    named = ((code, place_label(waypoints[code])) for code in stations)
+    return sorted(named, key=lambda s: s[1])
 
 
 def tasks_by_robot(*, robots: Iterable[Robot]) -> dict[int, list[Task]]:
@@ -395,7 +405,7 @@ def robot_plan(*, robot: Robot) -> PlanView | None:
     places = site_map(robot.site).waypoints
 
     def place(code: str) -> str:
-        return places[code].label if code in places else code
+        return place_label(places[code]) if code in places else code
 
     stops = [
         PlanStop(

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field, replace
 from robots.choices import WaypointKind
 from robots.mapcache import site_map
 from robots.models import Site
+from robots.names import floor_label, place_label
 
 MAP_MARGIN = 6.0  # metres around a floor's drawing
 MAP_MIN_SIZE = 20.0  # metres: a floor of one or two waypoints still gets a sensible drawing
@@ -68,7 +69,7 @@ def floors_of(*, site: Site) -> list[tuple[str, str]]:
     """(code, label) of the site's floors, top floor first (from the cached map)."""
     current = site_map(site)
     ordered = sorted(current.floors, key=current.floors.get, reverse=True)
-    return [(code, _floor_label(code, current.floor_names.get(code, ""))) for code in ordered]
+    return [(code, _floor_label(code, floor_label(current, code))) for code in ordered]
 
 
 def floor_drawing(*, site: Site, floor: str) -> FloorDrawing | None:
@@ -83,7 +84,7 @@ def floor_drawing(*, site: Site, floor: str) -> FloorDrawing | None:
     height = max(max_y - min(ys), MAP_MIN_SIZE / 2) + 2 * MAP_MARGIN
     drawing = FloorDrawing(
         floor=floor,
-        name=_floor_label(floor, current.floor_names.get(floor, "")),
+        name=_floor_label(floor, floor_label(current, floor)),
         width=round(width, 2),
         height=round(height, 2),
         min_x=min_x,
@@ -94,7 +95,8 @@ def floor_drawing(*, site: Site, floor: str) -> FloorDrawing | None:
         x, y = drawing.place(wp.x, wp.y)
         resources = tuple(waiting.get(code, ()))
         anchor = _anchor(x / drawing.width)
-        drawing.waypoints.append(DrawnWaypoint(code, wp.label, wp.kind, x, y, resources, anchor))
+        label = place_label(wp)
+        drawing.waypoints.append(DrawnWaypoint(code, label, wp.kind, x, y, resources, anchor))
     drawing.waypoints[:] = _labels_placed(drawing.waypoints)
     for edge in current.edges:
         if edge.source in points and edge.target in points:

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 from django import forms
 from django.utils import timezone
+from django.utils.translation import gettext
+from django.utils.translation import gettext_lazy as _
 
 from scheduling.choices import OperatorActionKind, Priority
 
@@ -19,12 +21,12 @@ DATETIME_LOCAL = "%Y-%m-%dT%H:%M"
 REPEAT_TIMES = "times"
 REPEAT_EVERY = "every"
 REPEAT_CHOICES = [
-    ("", "No"),
-    (REPEAT_TIMES, "Every day at set times"),
-    (REPEAT_EVERY, "Every few minutes within a daily window"),
+    ("", _("No")),
+    (REPEAT_TIMES, _("Every day at set times")),
+    (REPEAT_EVERY, _("Every few minutes within a daily window")),
 ]
 # The form's stop inputs: (input name, the API's field, the label of the first input).
-STOPS = {"pickup": ("pickups", "Pick-up"), "dropoff": ("dropoffs", "Drop-off")}
+STOPS = {"pickup": ("pickups", _("Pick-up")), "dropoff": ("dropoffs", _("Drop-off"))}
 # The API's fields -> this form's fields (None: the form as a whole).
 API_FIELDS = {
     "site": "site",
@@ -39,15 +41,15 @@ API_FIELDS = {
 # The API's terse words for a missing value, said per field as a person would ask for it.
 MISSING = {"This field may not be blank.", "This field is required.", "This list may not be empty."}
 ASK_FOR = {
-    "sender": "Say who sends it: a person or a unit.",
-    "receiver": "Say who it is for: a person or a unit.",
-    "contents": "Say what it carries, e.g. Blood sample.",
-    "pickup": "Choose the station where the robot picks it up.",
-    "dropoff": "Choose the station where the robot takes it.",
+    "sender": _("Say who sends it: a person or a unit."),
+    "receiver": _("Say who it is for: a person or a unit."),
+    "contents": _("Say what it carries, e.g. Blood sample."),
+    "pickup": _("Choose the station where the robot picks it up."),
+    "dropoff": _("Choose the station where the robot takes it."),
 }
 MATCHES_SHOWN = 5  # stations named when what was typed matches several
 IN_THE_PAST = "is in the past"
-PAST_TIME = "That time has passed: choose a later one, or leave the time as shown for now."
+PAST_TIME = _("That time has passed: choose a later one, or leave the time as shown for now.")
 REPEAT_FIELDS = {
     "times": "repeat_times",
     "every_minutes": "repeat_every",
@@ -87,9 +89,9 @@ class DeliveryRequestForm(forms.Form):
     # No `required` here: the API's serializer decides what is missing (and says so per field).
     use_required_attribute = False
 
-    site = forms.ChoiceField(label="Site", required=False)
+    site = forms.ChoiceField(label=_("Site"), required=False)
     requested_time = forms.DateTimeField(
-        label="Collection time",
+        label=_("Collection time"),
         required=False,
         widget=DateTimeLocalInput(),
         input_formats=[DATETIME_LOCAL, f"{DATETIME_LOCAL}:%S"],
@@ -97,22 +99,24 @@ class DeliveryRequestForm(forms.Form):
         show_hidden_initial=True,
     )
     # The API's limits, so the browser stops the typing where the server would refuse it.
-    sender = forms.CharField(label="Sender", required=False, strip=True, max_length=200)
-    receiver = forms.CharField(label="Receiver", required=False, strip=True, max_length=200)
-    contents = forms.CharField(label="Contents", required=False, strip=True, max_length=200)
-    priority = forms.ChoiceField(label="Priority", choices=Priority.choices, required=False)
-    repeat = forms.ChoiceField(label="Repeat", choices=REPEAT_CHOICES, required=False)
+    sender = forms.CharField(label=_("Sender"), required=False, strip=True, max_length=200)
+    receiver = forms.CharField(label=_("Receiver"), required=False, strip=True, max_length=200)
+    contents = forms.CharField(label=_("Contents"), required=False, strip=True, max_length=200)
+    priority = forms.ChoiceField(label=_("Priority"), choices=Priority.choices, required=False)
+    repeat = forms.ChoiceField(label=_("Repeat"), choices=REPEAT_CHOICES, required=False)
     secure = forms.BooleanField(
-        label="Secure (PIN)",
+        label=_("Secure (PIN)"),
         required=False,
-        help_text="Locked; opens with a PIN you see once.",
+        help_text=_("Locked; opens with a PIN you see once."),
     )
     repeat_times = forms.CharField(
-        label="Daily times", required=False, help_text="HH:MM, separated by commas: 08:00, 14:00"
+        label=_("Daily times"),
+        required=False,
+        help_text=_("HH:MM, separated by commas: 08:00, 14:00"),
     )
-    repeat_every = forms.IntegerField(label="Every (minutes)", required=False)
-    repeat_from = forms.CharField(label="Window from", required=False, widget=TimeOfDayInput)
-    repeat_until = forms.CharField(label="Window until", required=False, widget=TimeOfDayInput)
+    repeat_every = forms.IntegerField(label=_("Every (minutes)"), required=False)
+    repeat_from = forms.CharField(label=_("Window from"), required=False, widget=TimeOfDayInput)
+    repeat_until = forms.CharField(label=_("Window until"), required=False, widget=TimeOfDayInput)
 
     def __init__(self, data=None, *, sites, site, stations: list[tuple[str, str]], **kwargs):
         now = timezone.localtime().replace(second=0, microsecond=0)
@@ -209,7 +213,7 @@ class DeliveryRequestForm(forms.Form):
         them at once, stations named by name)."""
         self.repeat_mode = self.cleaned_data.get("repeat")
         for key, problems in errors.items():
-            stop = next((name for name, (api, _) in STOPS.items() if api == key), None)
+            stop = next((name for name, (api, _label) in STOPS.items() if api == key), None)
             if stop is not None:
                 self._stop_errors(stop, problems)
             elif key == "repeat":
@@ -249,7 +253,8 @@ class DeliveryRequestForm(forms.Form):
         if not names:
             return texts
         shown = ", ".join(names[:MATCHES_SHOWN]) + (", …" if len(names) > MATCHES_SHOWN else "")
-        return [f"“{typed}” matches {len(names)} stations ({shown}): type more of the name."]
+        said = gettext("“%(typed)s” matches %(count)d stations (%(shown)s): type more of the name.")
+        return [said % {"typed": typed, "count": len(names), "shown": shown}]
 
     def _repeat_errors(self, problems) -> None:
         if not isinstance(problems, dict):
@@ -285,8 +290,10 @@ def _station_codes(stations: list[tuple[str, str]]) -> dict[str, str]:
 def _in_words(field: str | None, texts: list[str]) -> list[str]:
     """The API's words, with a missing value asked for and a past time explained."""
     said = []
+    # DRF says these in the page's language (its own catalogs).
+    missing = {gettext(each) for each in MISSING}
     for text in texts:
-        if text in MISSING and field in ASK_FOR:
+        if text in missing and field in ASK_FOR:
             text = ASK_FOR[field]
         elif text == IN_THE_PAST and field == "requested_time":
             text = PAST_TIME
@@ -320,7 +327,7 @@ class ResourceServiceForm(forms.Form):
     def clean(self):
         cleaned = super().clean()
         if cleaned.get("in_service") is False and not cleaned.get("reason"):
-            self.add_error("reason", "say why it is out of service")
+            self.add_error("reason", _("say why it is out of service"))
         return cleaned
 
 
@@ -346,18 +353,18 @@ class IdentifyForm(forms.Form):
     use_required_attribute = False
 
     badge = forms.CharField(
-        label="Badge", required=False, max_length=128, strip=True, widget=_secret_input()
+        label=_("Badge"), required=False, max_length=128, strip=True, widget=_secret_input()
     )
     pin = forms.CharField(
-        label="PIN",
+        label=_("PIN"),
         required=False,
         max_length=8,
         strip=True,
         widget=_secret_input(inputmode="numeric"),
     )
-    username = forms.CharField(label="User name", required=False, max_length=150, strip=True)
+    username = forms.CharField(label=_("User name"), required=False, max_length=150, strip=True)
     password = forms.CharField(
-        label="Password", required=False, strip=False, widget=_secret_input()
+        label=_("Password"), required=False, strip=False, widget=_secret_input()
     )
 
     def clean(self):
@@ -366,16 +373,16 @@ class IdentifyForm(forms.Form):
         username, password = cleaned.get("username"), cleaned.get("password")
         if badge or pin:
             if not badge:
-                self.add_error("badge", "Scan your badge as well as typing your PIN.")
+                self.add_error("badge", _("Scan your badge as well as typing your PIN."))
             if not pin:
-                self.add_error("pin", "Type your PIN after scanning your badge.")
+                self.add_error("pin", _("Type your PIN after scanning your badge."))
         elif username or password:
             if not username:
-                self.add_error("username", "Type your user name as well as your password.")
+                self.add_error("username", _("Type your user name as well as your password."))
             if not password:
-                self.add_error("password", "Type your password as well as your user name.")
+                self.add_error("password", _("Type your password as well as your user name."))
         else:
-            self.add_error("badge", "Scan your badge and type your PIN to confirm the order.")
+            self.add_error("badge", _("Scan your badge and type your PIN to confirm the order."))
         return cleaned
 
 
@@ -385,10 +392,13 @@ class PinForm(forms.Form):
     use_required_attribute = False
 
     pin = forms.CharField(
-        label="New PIN", max_length=8, strip=True, widget=_secret_input(inputmode="numeric")
+        label=_("New PIN"), max_length=8, strip=True, widget=_secret_input(inputmode="numeric")
     )
     pin_again = forms.CharField(
-        label="New PIN again", max_length=8, strip=True, widget=_secret_input(inputmode="numeric")
+        label=_("New PIN again"),
+        max_length=8,
+        strip=True,
+        widget=_secret_input(inputmode="numeric"),
     )
 
     def clean(self):
@@ -398,7 +408,7 @@ class PinForm(forms.Form):
             and cleaned.get("pin_again")
             and cleaned["pin"] != cleaned["pin_again"]
         ):
-            self.add_error("pin_again", "The two PINs differ: type the same PIN twice.")
+            self.add_error("pin_again", _("The two PINs differ: type the same PIN twice."))
         return cleaned
 
 
@@ -406,7 +416,8 @@ class FireAlarmForm(forms.Form):
     """An operator starts a fire alarm (on the floors ticked; none: every floor) or ends it."""
 
     start = forms.TypedChoiceField(
-        choices=[("true", "start"), ("false", "all clear")], coerce=lambda value: value == "true"
+        choices=[("true", _("start")), ("false", _("all clear"))],
+        coerce=lambda value: value == "true",
     )
     floors = forms.MultipleChoiceField(required=False, choices=())
     reason = forms.CharField(max_length=200, required=False, strip=True)
@@ -421,7 +432,7 @@ class RobotMaintenanceForm(forms.Form):
     until a time) or returns it."""
 
     in_service = forms.TypedChoiceField(
-        choices=[("true", "in service"), ("false", "in maintenance")],
+        choices=[("true", _("in service")), ("false", _("in maintenance"))],
         coerce=lambda value: value == "true",
     )
     reason = forms.CharField(max_length=200, required=False, strip=True)
@@ -430,5 +441,5 @@ class RobotMaintenanceForm(forms.Form):
     def clean(self):
         cleaned = super().clean()
         if cleaned.get("in_service") is False and not cleaned.get("reason"):
-            self.add_error("reason", "say why it goes into maintenance")
+            self.add_error("reason", _("Say why it goes into maintenance."))
         return cleaned

@@ -2,6 +2,7 @@
 the JSON API of maps/views.py), the history of published versions with their rollback, and
 each version's export as a site file."""
 
+from django.conf import settings
 from django.contrib import messages
 from django.http import HttpResponse
 from django.shortcuts import get_object_or_404, redirect, render
@@ -26,6 +27,10 @@ def map_editor(request, site: str):
         "draft": draft_open(site=site),
         "margin": MAP_MARGIN,
         "rollouts": Rollout.choices,
+        # The default name is in the site's default language; the others are given per language.
+        "name_languages": [
+            (code, name) for code, name in settings.LANGUAGES if code != settings.LANGUAGE_CODE
+        ],
     }
     return render(request, "maps/editor.html", context)
 

@@ -6,6 +6,7 @@ from django.core.validators import RegexValidator
 from django.db import models
 from django.db.models import Q
 from django.utils import timezone
+from django.utils.translation import gettext_lazy as _
 
 from core.tokens import token_hash
 from robots.choices import Presence, RobotProtocol, RobotStatus
@@ -254,9 +255,9 @@ class PresenceChange(models.Model):
     """One flip of a robot's presence, by a heartbeat or by the sweep."""
 
     class Cause(models.TextChoices):
-        HEARTBEAT = "heartbeat", "Heartbeat"
-        SWEEP = "sweep", "Sweep (deadline passed)"
-        CONNECTION = "connection", "Connection lost (VDA 5050 last will or goodbye)"
+        HEARTBEAT = "heartbeat", _("Heartbeat")
+        SWEEP = "sweep", _("Sweep (deadline passed)")
+        CONNECTION = "connection", _("Connection lost (VDA 5050 last will or goodbye)")
 
     robot = models.ForeignKey(Robot, on_delete=models.CASCADE, related_name="presence_changes")
     at = models.DateTimeField()

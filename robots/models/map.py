@@ -7,6 +7,7 @@ from django.core.validators import MinValueValidator
 from django.db import models
 
 from robots.choices import ResourceKind, WaypointKind
+from robots.names import place_label
 
 POSITIVE = [MinValueValidator(0.001)]
 UNATTENDED_TO_PICKUP = "pickup"  # Site.unattended_return: back to the task's first pick-up
@@ -114,6 +115,9 @@ class Floor(models.Model):
     code = models.CharField(max_length=32)
     level = models.IntegerField()
     name = models.CharField(max_length=200, blank=True)
+    names = models.JSONField(
+        default=dict, blank=True, help_text='its name per language code, e.g. {"ko": "..."}'
+    )
 
     class Meta:
         ordering = ["site", "level"]
@@ -130,6 +134,9 @@ class Waypoint(models.Model):
     floor = models.ForeignKey(Floor, on_delete=models.CASCADE, related_name="waypoints")
     code = models.CharField(max_length=64)
     name = models.CharField(max_length=200, blank=True)
+    names = models.JSONField(
+        default=dict, blank=True, help_text='its name per language code, e.g. {"ko": "..."}'
+    )
     kind = models.CharField(max_length=16, choices=WaypointKind, default=WaypointKind.PLAIN)
     x = models.FloatField()
     y = models.FloatField()
@@ -145,7 +152,8 @@ class Waypoint(models.Model):
 
     @property
     def label(self) -> str:
-        return self.name or self.code
+        """Its name in the viewer's language (robots/names.py), else its name, else its code."""
+        return place_label(self)
 
 
 class Resource(models.Model):
@@ -154,6 +162,9 @@ class Resource(models.Model):
     site = models.ForeignKey(Site, on_delete=models.CASCADE, related_name="resources")
     code = models.CharField(max_length=64)
     name = models.CharField(max_length=200, blank=True)
+    names = models.JSONField(
+        default=dict, blank=True, help_text='its name per language code, e.g. {"ko": "..."}'
+    )
     kind = models.CharField(max_length=16, choices=ResourceKind)
     capacity = models.PositiveSmallIntegerField(default=1, validators=[MinValueValidator(1)])
     seconds_per_floor = models.FloatField(default=0.0, help_text="elevators only")

@@ -1,15 +1,16 @@
 """The chain of custody of a delivery: every hand-off of its items, for the pharmacy's audit."""
 
 from django.db import models
+from django.utils.translation import gettext_lazy as _
 
 from scheduling.models.tasks import Task, task_code
 
 
 class CustodyKind(models.TextChoices):
-    LOADED = "loaded", "Loaded"
-    UNLOADED = "unloaded", "Handed over"
-    LOCKED_OUT = "locked_out", "Kept locked after wrong PINs"
-    MOVED_ON = "moved_on", "Taken away: nobody unloaded it"
+    LOADED = "loaded", _("Loaded")
+    UNLOADED = "unloaded", _("Handed over")
+    LOCKED_OUT = "locked_out", _("Kept locked after wrong PINs")
+    MOVED_ON = "moved_on", _("Taken away: nobody unloaded it")
 
 
 class CustodyEntry(models.Model):

@@ -6,6 +6,7 @@ from django.db.models import Q
 from django.utils import timezone
 
 from core.codes import code_pk
+from core.said import said_text
 from scheduling.choices import (
     FINISHED_STATUSES,
     ROUTE_STATUSES,
@@ -228,6 +229,9 @@ class TaskTransition(models.Model):
         related_name="+",
     )
     note = models.CharField(max_length=300, blank=True)
+    words = models.JSONField(
+        null=True, blank=True, help_text="the note to show in each reader's language (core/said)"
+    )
 
     class Meta:
         ordering = ["id"]
@@ -242,3 +246,8 @@ class TaskTransition(models.Model):
 
     def __str__(self):
         return f"{task_code(self.task_id)}: {self.old or '-'} -> {self.new} ({self.cause})"
+
+    @property
+    def text(self) -> str:
+        """The note in the reader's language."""
+        return said_text(self.words, self.note)

@@ -21,6 +21,7 @@ from django.conf import settings
 from django.db import transaction
 from django.db.models import Case, IntegerField, Value, When
 from django.utils import timezone
+from django.utils.translation import gettext_noop
 
 from core import memo
 from robots.mapcache import router_for
@@ -47,16 +48,22 @@ from scheduling.services.plans import plan_post
 logger = logging.getLogger(__name__)
 
 DUE_BATCH = 200  # tasks one due sweep allocates at most; the next sweep takes the rest
-NO_ROBOT = "no robot available (online, not paused or in error, battery above the threshold)"
-NO_SECURE_ROBOT = "secure: no available robot has a lockable compartment"
-NO_ROUTE = "no available robot can fit it in its route (capacity or unreachable stops)"
-NO_SECURE_ROUTE = (
+NO_ROBOT = gettext_noop(
+    "no robot available (online, not paused or in error, battery above the threshold)"
+)
+NO_SECURE_ROBOT = gettext_noop("secure: no available robot has a lockable compartment")
+NO_ROUTE = gettext_noop(
+    "no available robot can fit it in its route (capacity or unreachable stops)"
+)
+NO_SECURE_ROUTE = gettext_noop(
     "secure: no available robot has a lockable compartment free for it on its route "
     "(or the capacity, or its stops are unreachable)"
 )
-NO_EMPTY_ROBOT = "no available robot is empty (single-task allocation)"
-NO_BATTERY = "no available robot has the battery to do it and get back to its dock"
-HELD_BY_FIRE_ALARM = "held: a fire alarm is in force; it is allocated at the all-clear"
+NO_EMPTY_ROBOT = gettext_noop("no available robot is empty (single-task allocation)")
+NO_BATTERY = gettext_noop("no available robot has the battery to do it and get back to its dock")
+HELD_BY_FIRE_ALARM = gettext_noop(
+    "held: a fire alarm is in force; it is allocated at the all-clear"
+)
 
 
 def task_allocate(*, task_id: int, now: datetime | None = None) -> bool:

@@ -4,9 +4,11 @@ from datetime import datetime
 
 from django.db import transaction
 from django.utils import timezone
+from django.utils.translation import gettext_noop
 
 from audit.choices import Kind
 from audit.services import entry_record
+from core.said import Said
 from robots.services import robot_lock
 from scheduling.choices import FINISHED_STATUSES, WAITING_STATUSES, Cause, StopAction, TaskStatus
 from scheduling.models import Task, TaskStop
@@ -111,7 +113,7 @@ def _cancel_held(task: Task, by, now: datetime) -> Task:
     if task.status == TaskStatus.ASSIGNED:
         plan_withdraw_pending(robot=robot, reason=f"{task.code} cancelled", now=now)
     task.cancelled_at, task.eta = now, None
-    note = f"cancelled; {robot.code} gets a plan without it"
+    note = Said(gettext_noop("cancelled; %(robot)s gets a plan without it"), robot=robot.code)
     why = {"cause": Cause.USER, "user": by, "robot": robot, "note": note}
     task_move(task, TaskStatus.CANCELLED, at=now, fields=["cancelled_at", "eta"], **why)
     robot_replan(robot=robot, now=now)
@@ -124,7 +126,11 @@ def _return_trip(task: Task, stops: list[TaskStop], by, now: datetime) -> Task:
     on_board = return_stop_add(task=task, stops=stops, waypoint=origin.waypoint, now=now)
     task.return_trip = True
     task.picked_up_at = task.picked_up_at or now
-    note = f"cancelled after pick-up: returning {on_board} item(s) to {origin.waypoint.code}"
+    note = Said(
+        gettext_noop("cancelled after pick-up: returning %(count)s item(s) to %(place)s"),
+        count=on_board,
+        place=origin.waypoint.code,
+    )
     why = {"cause": Cause.USER, "user": by, "robot": task.robot, "note": note}
     fields = ["return_trip", "picked_up_at"]
     task_move(task, TaskStatus.PICKED_UP, at=now, fields=fields, **why)

@@ -11,6 +11,9 @@ from collections.abc import Sequence
 from datetime import datetime
 from itertools import pairwise
 
+from django.utils.translation import gettext_noop
+
+from core.said import Said
 from robots.mapcache import router_for
 from robots.models import Robot, Site
 from robots.selectors import robot_dock
@@ -61,7 +64,7 @@ def robot_battery_check(*, robot: Robot, now: datetime) -> bool:
         return False
     _sent_to_charge(robot, True)  # first: a plan posted from here on is a charging one
     logger.info("%s is low (%.0f %%): sent to charge", robot.code, 100 * battery)
-    note = f"given back: {robot.code} sent to charge"
+    note = Said(gettext_noop("given back: %(robot)s sent to charge"), robot=robot.code)
     if not robot_tasks_give_back(robot=robot, at=now, note=note):
         plan_dock_post(robot=robot, now=now)
     return True

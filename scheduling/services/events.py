@@ -7,9 +7,12 @@ in the same response. Unknown task codes and stops refuse the whole heartbeat (4
 from dataclasses import dataclass, field
 from datetime import datetime
 
+from django.utils.translation import gettext_noop
+
 from boards.choices import EventType, MessageType
 from boards.models import BoardMessage, RobotEvent
 from boards.services import AppliedHeartbeat, HeartbeatRejected
+from core.said import Said, in_english
 from robots.alerts import alert_raise
 from robots.models import AlertKind, Robot
 from scheduling.choices import (
@@ -51,7 +54,7 @@ class _Heartbeat:
     failed: bool = False
     finished: bool = False
     # (reason, task, outcome) of each task_failed: one alert per reason (a refused order)
-    failures: list[tuple[str, Task, str]] = field(default_factory=list)
+    failures: list[tuple[str, Task, Said]] = field(default_factory=list)
 
 
 def heartbeat_tasks_apply(*, applied: AppliedHeartbeat) -> None:
@@ -128,7 +131,7 @@ def _plan_acked(beat: _Heartbeat, message: BoardMessage) -> None:
     for code in _plan_tasks(message):
         task = beat.tasks.get(code)
         if task and _holds(beat, task) and task.status == TaskStatus.ASSIGNED:
-            note = f"{beat.robot.code} has it in its plan"
+            note = Said(gettext_noop("%(robot)s has it in its plan"), robot=beat.robot.code)
             _acknowledge(beat, task, cause=Cause.ROBOT_ACK, robot=beat.robot, note=note)
 
 
@@ -274,16 +277,24 @@ def _failed(beat: _Heartbeat, task: Task, event: RobotEvent, why: dict) -> bool:
     reason = str(event.data.get("reason") or event.data.get("error") or "")[:200]
     because = f": {reason}" if reason else ""
     if not _loaded_any(task) and not _failed_before(task):
-        note = f"{beat.robot.code} could not do it{because}"
+        note = Said(
+            gettext_noop("%(robot)s could not do it%(because)s"),
+            robot=beat.robot.code,
+            because=because,
+        )
         task_give_back(
             task, beat.robot, beat.now, avoid=True, cause=Cause.ROBOT_FAULT, event=event, note=note
         )
-        outcome = "given to another robot"
+        outcome = Said(gettext_noop("given to another robot"))
     else:
         task.failed_at, task.eta = beat.now, None
         fields = ["failed_at", "eta"]
         task_move(task, TaskStatus.FAILED, at=beat.now, fields=fields, note=reason, **why)
-        outcome = "items still on board" if _loaded_any(task) else "it had failed before"
+        outcome = Said(
+            gettext_noop("items still on board")
+            if _loaded_any(task)
+            else gettext_noop("it had failed before")
+        )
     beat.failures.append((reason, task, outcome))
     beat.failed = True
     return True
@@ -302,14 +313,20 @@ def _failures_alert(beat: _Heartbeat) -> None:
         if len(outcomes) == 1:
             outcome = outcomes.pop()
         else:
-            outcome = "; ".join(f"{task.code}: {outcome}" for task, outcome in failed)
+            outcome = "; ".join(f"{task.code}: {in_english(outcome)}" for task, outcome in failed)
         first = failed[0][0]
         codes = "+".join(task.code for task, _ in failed)
         alert_raise(
             site_id=first.site_id,
             kind=AlertKind.TASK_FAILED,
             key=f"task-failed:{codes}"[:200],
-            message=f"{tasks} failed on {beat.robot.code}{because} ({outcome})",
+            message=Said(
+                gettext_noop("%(tasks)s failed on %(robot)s%(because)s (%(outcome)s)"),
+                tasks=tasks,
+                robot=beat.robot.code,
+                because=because,
+                outcome=outcome,
+            ),
             robot=beat.robot,
             task=first.code,
         )

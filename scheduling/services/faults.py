@@ -14,9 +14,11 @@ Both run inside the heartbeat's transaction with the robot's row locked.
 from datetime import datetime
 
 from django.utils import timezone
+from django.utils.translation import gettext_noop
 
 from boards.models import RobotEvent
 from boards.services import AppliedHeartbeat
+from core.said import Said
 from robots.alerts import alert_raise, alerts_close
 from robots.choices import RobotStatus
 from robots.models import AlertKind, Robot
@@ -55,10 +57,15 @@ def robot_fault(*, robot: Robot, at: datetime) -> int:
     robot.fault_at = at
     robot.save(update_fields=["fault_at"])
     what = "; ".join(robot.errors or []) or "no reason given"
-    reason = f"{robot.code} reported a fault ({what[:120]})"
+    reason = Said(
+        gettext_noop("%(robot)s reported a fault (%(what)s)"), robot=robot.code, what=what[:120]
+    )
     given_back, loaded = give_back_unloaded(robot, at, reason=reason, cause=Cause.ROBOT_FAULT)
     _alert_fault(robot, what, given_back, loaded)
-    note = f"{reason}: the items stay on board until an operator sees to it"
+    note = Said(
+        gettext_noop("%(reason)s: the items stay on board until an operator sees to it"),
+        reason=reason,
+    )
     for task in loaded:
         task_record(task, old=task.status, at=at, cause=Cause.ROBOT_FAULT, robot=robot, note=note)
     robot_publish(robot=robot)
@@ -66,19 +73,38 @@ def robot_fault(*, robot: Robot, at: datetime) -> int:
 
 
 def _alert_fault(robot: Robot, what: str, given_back: list[Task], loaded: list[Task]) -> None:
-    message = f"{robot.code} reports an error: {what}."
-    if given_back:
-        message += f" Given to other robots: {_listed(given_back)}."
-    if loaded:
-        message += f" Still on board: {_listed(loaded)}. Resume it or send it to its dock."
+    said = {"robot": robot.code, "what": what[:500]}
+    given, kept = _listed(given_back)[:200], _listed(loaded)[:200]
+    if given_back and loaded:
+        message = Said(FAULT_GIVEN_AND_KEPT, **said, given=given, kept=kept)
+    elif given_back:
+        message = Said(FAULT_GIVEN, **said, given=given)
+    elif loaded:
+        message = Said(FAULT_KEPT, **said, kept=kept)
+    else:
+        message = Said(FAULT, **said)
     alert_raise(
         site_id=robot.site_id,
         kind=AlertKind.ROBOT_ERROR,
         key=robot_fault_key(robot),
-        message=message[:1000],
+        message=message,
         robot=robot,
         task=loaded[0].code if loaded else "",
     )
+
+
+FAULT = gettext_noop("%(robot)s reports an error: %(what)s.")
+FAULT_GIVEN = gettext_noop(
+    "%(robot)s reports an error: %(what)s. Given to other robots: %(given)s."
+)
+FAULT_KEPT = gettext_noop(
+    "%(robot)s reports an error: %(what)s. Still on board: %(kept)s. "
+    "Resume it or send it to its dock."
+)
+FAULT_GIVEN_AND_KEPT = gettext_noop(
+    "%(robot)s reports an error: %(what)s. Given to other robots: %(given)s. "
+    "Still on board: %(kept)s. Resume it or send it to its dock."
+)
 
 
 def _listed(tasks: list[Task]) -> str:

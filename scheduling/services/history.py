@@ -16,6 +16,7 @@ from django.db import transaction
 
 from core import changes
 from core.outbox import send_soon
+from core.said import Said, in_english, words_of
 from scheduling.models import Task, TaskTransition
 from scheduling.pending import allocation_pending_claim
 
@@ -45,7 +46,7 @@ def task_record(
     robot=None,
     event=None,
     user=None,
-    note: str = "",
+    note: str | Said = "",
 ) -> TaskTransition:
     """Add an entry to the task's history (old == new for events that changed no status).
     While moves are held (task_moves_held) it is stored, and told, when they are written."""
@@ -120,6 +121,7 @@ def task_moves_write() -> None:
 
 
 def _entry(task, old, at, cause, robot=None, event=None, user=None, note="") -> TaskTransition:
+    """`note` in English, and as words for each reader's language when it is Said."""
     return TaskTransition(
         task=task,
         at=at,
@@ -129,7 +131,8 @@ def _entry(task, old, at, cause, robot=None, event=None, user=None, note="") -> 
         robot=robot,
         event=event,
         user=user,
-        note=note[:300],
+        note=in_english(note)[:300],
+        words=words_of(note),
     )
 
 

@@ -18,12 +18,14 @@ from datetime import datetime
 
 from django.db import transaction
 from django.utils import timezone
+from django.utils.translation import gettext_noop
 
 from audit.choices import Kind
 from audit.services import entry_record
 from boards import protocol
 from boards.choices import MessageType
 from boards.services import board_post
+from core.said import Said
 from resources.availability import resource_return_to_service, resource_take_out_of_service
 from robots.models import Resource, Robot
 from robots.services import robot_lock, robot_publish
@@ -68,16 +70,18 @@ def robot_action(*, robot: Robot, action: str, by, now: datetime | None = None) 
 
 # What the tasks still on the robot's route record, in their requesters' words.
 _HELD_NOTES = {
-    OperatorActionKind.PAUSE: "Held by an operator",
-    OperatorActionKind.RESUME: "Released by an operator: on its way again",
-    OperatorActionKind.RETURN_TO_DOCK: "{robot} recalled by an operator, with the items on board",
+    OperatorActionKind.PAUSE: gettext_noop("Held by an operator"),
+    OperatorActionKind.RESUME: gettext_noop("Released by an operator: on its way again"),
+    OperatorActionKind.RETURN_TO_DOCK: gettext_noop(
+        "%(robot)s recalled by an operator, with the items on board"
+    ),
 }
 
 
 def _tell_held_tasks(robot: Robot, action: str, by, now: datetime) -> None:
     """Record the action in the history of each task still on the robot's route, which also
     updates their rows on the requesters' pages."""
-    note = _HELD_NOTES[action].format(robot=robot.code)
+    note = Said(_HELD_NOTES[action], robot=robot.code)
     for task in Task.objects.filter(robot=robot, status__in=ROUTE_STATUSES):
         task_record(
             task, old=task.status, at=now, cause=Cause.USER, robot=robot, user=by, note=note

@@ -3,6 +3,9 @@ a robot an operator sends back to its dock (scheduling.services.operator)."""
 
 from datetime import datetime
 
+from django.utils.translation import gettext_noop
+
+from core.said import Said, in_english
 from robots.alerts import alert_raise
 from robots.models import AlertKind, Robot
 from scheduling.choices import ROUTE_STATUSES, Cause, TaskStatus
@@ -18,25 +21,29 @@ def robot_offline(*, robot: Robot, at: datetime) -> int:
     board stay with it (silence never drops a load); operators are alerted about those. The
     robot is posted a corrected plan, which it receives when it comes back.
     """
-    given_back, loaded = give_back_unloaded(
-        robot, at, reason=f"{robot.code} went offline", cause=Cause.PRESENCE
-    )
+    went = Said(gettext_noop("%(robot)s went offline"), robot=robot.code)
+    given_back, loaded = give_back_unloaded(robot, at, reason=went, cause=Cause.PRESENCE)
     if loaded:
         _alert_loaded(robot, loaded)
-    note = f"{robot.code} went offline with the items on board: operators are alerted"
+    note = Said(
+        gettext_noop("%(robot)s went offline with the items on board: operators are alerted"),
+        robot=robot.code,
+    )
     for task in loaded:
         task_record(task, old=task.status, at=at, cause=Cause.PRESENCE, robot=robot, note=note)
     return len(given_back)
 
 
-def robot_tasks_give_back(*, robot: Robot, at: datetime, by=None, note: str = "") -> int:
+def robot_tasks_give_back(*, robot: Robot, at: datetime, by=None, note: str | Said = "") -> int:
     """Give the robot's tasks with nothing on board back to the scheduler, for an operator
     (`by`); returns how many. They become due and are allocated again (to other robots while
     this one is held). Tasks with items on board stay with it; it is posted a corrected plan.
 
     Call with the robot's row locked.
     """
-    note = note or f"{robot.code} recalled to its dock by an operator"
+    note = note or Said(
+        gettext_noop("%(robot)s recalled to its dock by an operator"), robot=robot.code
+    )
     given_back, _loaded = give_back_unloaded(
         robot, at, reason=note, cause=Cause.USER, user=by, note=note
     )
@@ -56,7 +63,7 @@ def give_back_unloaded(robot: Robot, at: datetime, *, reason: str, **why):
     for task in given_back:
         task_give_back(task, robot, at, **why)
     if given_back:
-        plan_withdraw_pending(robot=robot, reason=reason, now=at)
+        plan_withdraw_pending(robot=robot, reason=in_english(reason), now=at)
         robot_replan(robot=robot, now=at)
     return given_back, loaded
 
@@ -80,7 +87,9 @@ def _alert_loaded(robot: Robot, tasks: list[Task]) -> None:
         site_id=robot.site_id,
         kind=AlertKind.OFFLINE_WITH_LOAD,
         key=f"offline-with-load:{robot.code}",
-        message=f"{robot.code} went offline carrying {codes}",
+        message=Said(
+            gettext_noop("%(robot)s went offline carrying %(codes)s"), robot=robot.code, codes=codes
+        ),
         robot=robot,
         task=tasks[0].code,
     )

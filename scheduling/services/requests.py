@@ -7,9 +7,11 @@ from django.conf import settings
 from django.db import IntegrityError, transaction
 from django.db.models import Max
 from django.utils import timezone
+from django.utils.translation import gettext_noop
 
 from audit.choices import Kind
 from audit.services import entry_record
+from core.said import Said
 from robots.models import Site, Waypoint
 from scheduling.choices import Cause, Priority, StopAction, TaskStatus
 from scheduling.deadlines import due_at_default
@@ -255,7 +257,11 @@ def _instance_create(recurring, at, pickups, dropoffs, now) -> Task:
     note = ""
     if late > RECURRING_LATE_AFTER:
         due = timezone.localtime(at).strftime("%H:%M")
-        note = f"created late: due at {due}, {late // timedelta(minutes=1)} min ago"
+        note = Said(
+            gettext_noop("created late: due at %(due)s, %(minutes)s min ago"),
+            due=due,
+            minutes=late // timedelta(minutes=1),
+        )
     return task_create(
         site=recurring.site,
         requester=recurring.requester,

@@ -4,7 +4,9 @@ from datetime import datetime
 
 from django.db import transaction
 from django.utils import timezone
+from django.utils.translation import gettext_noop
 
+from core.said import Said
 from robots.services import robot_lock
 from scheduling.choices import Cause, TaskStatus
 from scheduling.models import Task
@@ -35,7 +37,11 @@ def ack_timeout_step(*, task_id: int, robot_id: int, now: datetime) -> int:
     if not claimed:
         return 0
     task = Task.objects.get(pk=task_id)
-    note = f"{robot.code} did not acknowledge within {robot.site.ack_timeout:g} s"
+    note = Said(
+        gettext_noop("%(robot)s did not acknowledge within %(seconds)s s"),
+        robot=robot.code,
+        seconds=f"{robot.site.ack_timeout:g}",
+    )
     task_record(
         task, old=TaskStatus.ASSIGNED, at=now, cause=Cause.ACK_TIMEOUT, robot=robot, note=note
     )

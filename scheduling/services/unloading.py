@@ -9,9 +9,11 @@ from datetime import datetime, timedelta
 
 from django.db import transaction
 from django.utils import timezone
+from django.utils.translation import gettext_noop
 
 from boards.choices import EventType
 from boards.models import RobotEvent
+from core.said import Said
 from robots.alerts import alert_raise, alerts_close
 from robots.choices import RobotStatus
 from robots.mapcache import waypoint_by_id
@@ -72,11 +74,22 @@ def _stop_overdue(robot: Robot, stop: TaskStop, now: datetime) -> bool:
         f"{robot.code} has waited {_duration(waited)} at {place} "
         f"with {task.contents} {task.code}: nobody has unloaded it"
     )
+    message = Said(
+        gettext_noop(
+            "%(robot)s has waited %(waited)s at %(place)s with %(contents)s %(code)s: nobody has "
+            "unloaded it. Call the station, or cancel it to bring the items back."
+        ),
+        robot=robot.code,
+        waited=_duration(waited),
+        place=place,
+        contents=task.contents,
+        code=task.code,
+    )
     alert_raise(
         site_id=task.site_id,
         kind=AlertKind.UNLOAD_TIMEOUT,
         key=key,
-        message=f"{words}. Call the station, or cancel it to bring the items back.",
+        message=message,
         robot=robot,
         task=task.code,
     )
@@ -144,12 +157,30 @@ def task_move_on(*, robot_id: int, stop_id: int, waited: timedelta, now: datetim
     why = {"cause": Cause.UNLOADING, "robot": robot, "note": words}
     task_move(task, TaskStatus.PICKED_UP, at=now, fields=["return_trip", "unattended_at"], **why)
     alerts_close(key=_alert_key(stop), at=now)  # this alert says what became of it
+    locked_in = (
+        Said(gettext_noop(", locked in compartment %(compartment)s"), compartment=entry.compartment)
+        if entry.compartment
+        else ""
+    )
+    message = Said(
+        gettext_noop(
+            "Nobody unloaded it at %(place)s in %(waited)s: %(robot)s moved on, taking it to "
+            "%(back)s%(locked)s (%(code)s, %(contents)s). It is not delivered: call the receiver "
+            "to order it again."
+        ),
+        place=where,
+        waited=_duration(waited),
+        robot=robot.code,
+        back=back_to.label,
+        locked=locked_in,
+        code=task.code,
+        contents=task.contents,
+    )
     alert_raise(
         site_id=task.site_id,
         kind=AlertKind.UNATTENDED,
         key=f"unattended:{task.code}",
-        message=f"{words} ({task.code}, {task.contents}). It is not delivered: "
-        "call the receiver to order it again.",
+        message=message,
         robot=robot,
         task=task.code,
     )

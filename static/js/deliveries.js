@@ -10,7 +10,7 @@
 
   // --- More stops ---------------------------------------------------------------------------
 
-  const LABELS = { pickup: "Pick-up", dropoff: "Drop-off" };
+  const LABELS = { pickup: gettext("Pick-up"), dropoff: gettext("Drop-off") };
 
   function renumber(group) {
     const kind = group.dataset.stops;
@@ -36,7 +36,7 @@
     button.dataset.removeStop = "";
     const hidden = document.createElement("span");
     hidden.className = "visually-hidden";
-    button.append("Remove", hidden);
+    button.append(gettext("Remove"), hidden);
     return button;
   }
 
@@ -125,7 +125,7 @@
       })
       .then((html) => {
         opener = link;
-        document.getElementById("history-dialog-title").textContent = `Delivery ${link.textContent}`;
+        document.getElementById("history-dialog-title").textContent = interpolate(gettext("Delivery %(code)s"), { code: link.textContent }, true);
         document.getElementById("history-dialog-body").innerHTML = html;
         dialog.showModal();
         dialog.querySelector("[data-close-dialog]").focus();

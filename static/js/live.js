@@ -27,7 +27,7 @@
     if (mine && mine.url && nav) {
       const link = document.createElement("a");
       link.href = mine.url;
-      link.textContent = `My station: ${mine.name}`;
+      link.textContent = interpolate(gettext("My station: %(name)s"), { name: mine.name }, true);
       nav.append(link);
     }
   } catch (error) {
@@ -79,7 +79,7 @@
       return;
     }
     clearTimeout(retryTimer);
-    setStatus("connecting", attempt ? "Reconnecting…" : "Connecting…");
+    setStatus("connecting", attempt ? gettext("Reconnecting…") : gettext("Connecting…"));
     try {
       socket = new WebSocket(socketUrl());
     } catch (error) {
@@ -91,7 +91,7 @@
       // "Live" only once the page shows the state as of now: events from here on apply to it.
       reread(new Set(parts)).then((ok) => {
         if (ok && socket && socket.readyState === WebSocket.OPEN) {
-          setStatus("open", "Live");
+          setStatus("open", gettext("Live"));
         }
       });
     });
@@ -110,7 +110,7 @@
         toLogin();
       } else if (closed.code === 4403 || closed.code === 4404) {
         closedForGood = true;
-        setStatus("closed", "No live updates");
+        setStatus("closed", gettext("No live updates"));
       } else {
         retryLater();
       }
@@ -121,7 +121,7 @@
     attempt += 1;
     // 1 s, 2 s, 4 s, 8 s, then every 15 s; jittered so restarted servers are not stampeded.
     const delay = Math.min(15000, 500 * 2 ** Math.min(attempt, 5)) * (0.75 + Math.random() / 2);
-    setStatus("reconnecting", "Reconnecting…");
+    setStatus("reconnecting", gettext("Reconnecting…"));
     clearTimeout(retryTimer);
     retryTimer = setTimeout(connect, delay);
   }
@@ -135,7 +135,7 @@
 
   function toLogin() {
     closedForGood = true;
-    setStatus("closed", "Logged out");
+    setStatus("closed", gettext("Logged out"));
     const next = encodeURIComponent(location.pathname + location.search);
     location.assign(`${body.dataset.loginUrl}?next=${next}`);
   }
@@ -375,19 +375,19 @@
     status: (r) => {
       const nodes = [document.createTextNode(r.status_label)];
       if (r.paused_by_operator) {
-        nodes.push(document.createTextNode(" "), element("span", "badge badge-hold", "held by operator"));
+        nodes.push(document.createTextNode(" "), element("span", "badge badge-hold", gettext("held by operator")));
       }
       if (r.held_after_fault) {
-        const text = "held after a fault: Resume or send it to its dock";
+        const text = gettext("held after a fault: Resume or send it to its dock");
         nodes.push(document.createTextNode(" "), element("span", "badge badge-error", text));
       }
       if (r.in_maintenance) {
-        const badge = element("span", "badge badge-hold", "in maintenance");
+        const badge = element("span", "badge badge-hold", gettext("in maintenance"));
         badge.dataset.badge = "maintenance";
         nodes.push(document.createTextNode(" "), badge);
       }
       if (r.sent_to_charge) {
-        const badge = element("span", "badge badge-hold", "sent to charge: no tasks until charged");
+        const badge = element("span", "badge badge-hold", gettext("sent to charge: no tasks until charged"));
         badge.dataset.badge = "charge";
         nodes.push(document.createTextNode(" "), badge);
       }

@@ -87,9 +87,9 @@
     const answer = await api(root.dataset.draftUrl, "GET");
     if (answer.ok) {
       took(answer.data);
-      say("Draft loaded.");
+      say(gettext("Draft loaded."));
     } else {
-      say(`Could not read the draft: ${errorsOf(answer.data).join("; ")}`);
+      say(interpolate(gettext("Could not read the draft: %(errors)s"), { errors: errorsOf(answer.data).join("; ") }, true));
     }
   }
 
@@ -101,16 +101,16 @@
     const answer = await api(root.dataset.draftUrl, "PUT", body);
     if (answer.ok) {
       took(answer.data);
-      say(`Draft saved (revision ${draft.revision}).`);
+      say(interpolate(gettext("Draft saved (revision %(revision)s)."), { revision: draft.revision }, true));
       return true;
     }
-    say(`Not saved: ${errorsOf(answer.data).join("; ")}`);
+    say(interpolate(gettext("Not saved: %(errors)s"), { errors: errorsOf(answer.data).join("; ") }, true));
     return false;
   }
 
   function changed() {
     dirty = true;
-    say("Unsaved changes.");
+    say(gettext("Unsaved changes."));
   }
 
   // --- The document -------------------------------------------------------------------------
@@ -180,12 +180,16 @@
 
   function addEdge(a, b) {
     if (a === b || connected(a, b)) {
-      say(a === b ? "An edge joins two different waypoints." : `${a} and ${b} are joined already.`);
+      say(
+        a === b
+          ? gettext("An edge joins two different waypoints.")
+          : interpolate(gettext("%(a)s and %(b)s are joined already."), { a, b }, true),
+      );
       return;
     }
     edges().push([a, b]);
     changed();
-    say(`Edge ${a} – ${b} added (unsaved).`);
+    say(interpolate(gettext("Edge %(a)s – %(b)s added (unsaved)."), { a, b }, true));
   }
 
   function removeEdge(edge) {
@@ -352,7 +356,7 @@
       }
       const line = element("line", { x1, y1, x2, y2, class: css }, edgeLayer);
       line.dataset.edge = `${a.code}|${b.code}`;
-      element("title", {}, line).textContent = `Edge ${a.code} – ${b.code}`;
+      element("title", {}, line).textContent = interpolate(gettext("Edge %(a)s – %(b)s"), { a: a.code, b: b.code }, true);
       line.addEventListener("pointerdown", (event) => {
         if (mode() === "select") {
           event.stopPropagation();
@@ -399,6 +403,9 @@
     }
     $("wp-code").value = wp.code;
     $("wp-name").value = wp.name || "";
+    for (const input of document.querySelectorAll("[data-name-language]")) {
+      input.value = (wp.names || {})[input.dataset.nameLanguage] || "";
+    }
     $("wp-kind").value = wp.kind || "plain";
     $("wp-x").value = wp.x;
     $("wp-y").value = wp.y;
@@ -411,7 +418,7 @@
       const button = document.createElement("button");
       button.type = "button";
       button.className = "button-small button-quiet";
-      button.textContent = `Remove edge ${a} – ${b}`;
+      button.textContent = interpolate(gettext("Remove edge %(a)s – %(b)s"), { a, b }, true);
       button.addEventListener("click", () => {
         removeEdge(edge);
         renderAll();
@@ -482,12 +489,12 @@
       const title = document.createElement("h3");
       title.textContent = `${resource.code} (${resource.kind})`;
       card.append(title);
-      resourceField(card, "Name", resource.name || "", (v) => {
+      resourceField(card, gettext("Name"), resource.name || "", (v) => {
         resource.name = v;
       });
       resourceField(
         card,
-        "Capacity",
+        gettext("Capacity"),
         resource.capacity ?? 1,
         (v) => {
           resource.capacity = Number.parseInt(v, 10);
@@ -496,23 +503,23 @@
       );
       if (resource.kind === "elevator") {
         const stops = Object.entries(resource.stops || {}).map(([f, wp]) => `${f}=${wp}`);
-        resourceField(card, "Stops", stops.join(", "), (v) => {
+        resourceField(card, gettext("Stops"), stops.join(", "), (v) => {
           resource.stops = Object.fromEntries(
             v.split(",").map((part) => part.split("=").map((s) => s.trim())).filter((p) => p[0]),
           );
         });
-        resourceField(card, "Seconds per floor", resource.seconds_per_floor ?? 2, (v) => {
+        resourceField(card, gettext("Seconds per floor"), resource.seconds_per_floor ?? 2, (v) => {
           resource.seconds_per_floor = Number(v);
         }, "number");
-        resourceField(card, "Overhead seconds", resource.overhead_seconds ?? 20, (v) => {
+        resourceField(card, gettext("Overhead seconds"), resource.overhead_seconds ?? 20, (v) => {
           resource.overhead_seconds = Number(v);
         }, "number");
       } else {
-        resourceField(card, "Waiting waypoints", (resource.waiting || []).join(", "), (v) => {
+        resourceField(card, gettext("Waiting waypoints"), (resource.waiting || []).join(", "), (v) => {
           resource.waiting = v.split(",").map((s) => s.trim()).filter(Boolean);
         });
         const guards = (resource.guards || []).map((p) => `${p[0]} - ${p[1]}`).join("\n");
-        resourceField(card, "Guarded edges", guards, (v) => {
+        resourceField(card, gettext("Guarded edges"), guards, (v) => {
           resource.guards = v
             .split("\n")
             .map((line) => line.split(/\s+-\s+/).map((s) => s.trim()))
@@ -522,7 +529,7 @@
       const remove = document.createElement("button");
       remove.type = "button";
       remove.className = "button-small button-danger";
-      remove.textContent = `Remove ${resource.code}`;
+      remove.textContent = interpolate(gettext("Remove %(code)s"), { code: resource.code }, true);
       remove.addEventListener("click", () => {
         resources().splice(index, 1);
         changed();
@@ -552,7 +559,7 @@
     if (mode() === "edge") {
       if (edgeStart === null) {
         edgeStart = wp.code;
-        say(`Edge from ${wp.code}: now select the other end.`);
+        say(interpolate(gettext("Edge from %(code)s: now select the other end."), { code: wp.code }, true));
       } else {
         addEdge(edgeStart, wp.code);
         edgeStart = null;
@@ -576,7 +583,7 @@
     }
     const at = floorPoint(event);
     if (addWaypoint(freeCode(), at.x, at.y)) {
-      say(`Waypoint ${selected} added: name it and choose its kind.`);
+      say(interpolate(gettext("Waypoint %(code)s added: name it and choose its kind."), { code: selected }, true));
       renderAll();
     }
   });
@@ -667,6 +674,27 @@
     });
   }
 
+  // A name per language (the site file's `names`); an emptied one is taken away.
+  for (const input of document.querySelectorAll("[data-name-language]")) {
+    input.addEventListener("change", () => {
+      const wp = findWaypoint(selected);
+      const names = { ...(wp.names || {}) };
+      const language = input.dataset.nameLanguage;
+      if (input.value.trim()) {
+        names[language] = input.value.trim();
+      } else {
+        delete names[language];
+      }
+      if (Object.keys(names).length) {
+        wp.names = names;
+      } else {
+        delete wp.names;
+      }
+      changed();
+      renderAll();
+    });
+  }
+
   $("selected-form").addEventListener("submit", (event) => event.preventDefault());
 
   $("wp-connect-add").addEventListener("click", () => {
@@ -695,7 +723,7 @@
     const code = $("new-resource-code").value.trim();
     const kind = $("new-resource-kind").value;
     if (!code) {
-      say("Give the new resource a code.");
+      say(gettext("Give the new resource a code."));
       return;
     }
     const resource = { code, kind, capacity: 1 };
@@ -723,12 +751,15 @@
   }
 
   function showImpact(data) {
-    const lines = (data.blockers || []).map((b) => `Blocks publishing: ${b}`);
+    const lines = (data.blockers || []).map((b) => interpolate(gettext("Blocks publishing: %(why)s"), { why: b }, true));
     for (const route of data.routes || []) {
-      const verb = $("editor-rollout").value === "replan" ? "will be re-planned" : "blocks publishing";
-      lines.push(`Robot ${route.robot}’s current route crosses ${route.crosses.join(", ")}: ${verb}`);
+      const said =
+        $("editor-rollout").value === "replan"
+          ? gettext("Robot %(robot)s’s current route crosses %(places)s: will be re-planned")
+          : gettext("Robot %(robot)s’s current route crosses %(places)s: blocks publishing");
+      lines.push(interpolate(said, { robot: route.robot, places: route.crosses.join(", ") }, true));
     }
-    listInto("check-impact", lines.length ? lines : ["No robot’s route or pending delivery is touched."]);
+    listInto("check-impact", lines.length ? lines : [gettext("No robot’s route or pending delivery is touched.")]);
   }
 
   async function check() {
@@ -737,19 +768,25 @@
     }
     const answer = await api(root.dataset.checkUrl, "GET");
     if (!answer.ok) {
-      say(`Could not check: ${errorsOf(answer.data).join("; ")}`);
+      say(interpolate(gettext("Could not check: %(errors)s"), { errors: errorsOf(answer.data).join("; ") }, true));
       return null;
     }
     const data = answer.data;
-    listInto("check-problems", data.problems.length ? data.problems : ["None: the draft is valid."]);
+    listInto("check-problems", data.problems.length ? data.problems : [gettext("None: the draft is valid.")]);
     listInto(
       "check-changes",
       data.changes.length
         ? data.changes.map((c) => `${c.what} ${c.how}: ${c.code}${c.detail ? ` (${c.detail})` : ""}`)
-        : ["None: the draft is the live map."],
+        : [gettext("None: the draft is the live map.")],
     );
     showImpact(data);
-    say(`Checked: ${data.problems.length} problem(s), ${data.changes.length} change(s).`);
+    say(
+      interpolate(
+        gettext("Checked: %(problems)s problem(s), %(changes)s change(s)."),
+        { problems: data.problems.length, changes: data.changes.length },
+        true,
+      ),
+    );
     return data;
   }
 
@@ -763,7 +800,7 @@
     const answer = await api(root.dataset.publishUrl, "POST", body);
     const result = $("publish-result");
     if (answer.ok) {
-      result.textContent = `Published version ${answer.data.number}.`;
+      result.textContent = interpolate(gettext("Published version %(number)s."), { number: answer.data.number }, true);
       if (answer.data.replanned.length) {
         result.textContent += ` Re-planned: ${answer.data.replanned.join(", ")}.`;
       }
@@ -771,11 +808,11 @@
       await load();
       await check();
     } else if (answer.status === 409 && answer.data && answer.data.error === "blocked") {
-      result.textContent = "Not published: robots or deliveries are in the way (below).";
+      result.textContent = gettext("Not published: robots or deliveries are in the way (below).");
       showImpact(answer.data.detail);
     } else {
       const problems = errorsOf(answer.data);
-      result.textContent = `Not published: ${problems.length} problem(s). The live map is unchanged.`;
+      result.textContent = interpolate(gettext("Not published: %(count)s problem(s). The live map is unchanged."), { count: problems.length }, true);
       listInto("check-problems", problems);
     }
   });
@@ -785,9 +822,9 @@
     if (answer.ok) {
       draft.revision = answer.data.revision;
       $("draft-revision").textContent = draft.revision;
-      say("Saved the site’s choice.");
+      say(gettext("Saved the site’s choice."));
     } else {
-      say(`Not saved: ${errorsOf(answer.data).join("; ")}`);
+      say(interpolate(gettext("Not saved: %(errors)s"), { errors: errorsOf(answer.data).join("; ") }, true));
     }
   });
 
@@ -801,26 +838,33 @@
     const answer = await api(root.dataset.uploadUrl, "POST", body);
     if (answer.ok) {
       took(answer.data);
-      say(`${file.name} is now the draft: check it, then publish.`);
+      say(interpolate(gettext("%(file)s is now the draft: check it, then publish."), { file: file.name }, true));
     } else {
-      say(`${file.name} was not taken: ${errorsOf(answer.data).join("; ")}`);
+      say(
+        interpolate(
+          gettext("%(file)s was not taken: %(errors)s"),
+          { file: file.name, errors: errorsOf(answer.data).join("; ") },
+          true,
+        ),
+      );
     }
     event.target.value = "";
   });
 
   $("editor-reset").addEventListener("click", async () => {
-    const asking =
+    const asking = gettext(
       "Discard every edit of the draft, saved or not? The draft becomes the live map again; " +
-      "the edits cannot be brought back.";
+        "the edits cannot be brought back.",
+    );
     if (!window.confirm(asking)) {
       return;
     }
     const answer = await api(root.dataset.resetUrl, "POST", { revision: draft.revision });
     if (answer.ok) {
       took(answer.data);
-      say("The draft is the live map again.");
+      say(gettext("The draft is the live map again."));
     } else {
-      say(`Not discarded: ${errorsOf(answer.data).join("; ")}`);
+      say(interpolate(gettext("Not discarded: %(errors)s"), { errors: errorsOf(answer.data).join("; ") }, true));
     }
   });
 

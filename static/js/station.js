@@ -22,7 +22,7 @@
   function showSound() {
     soundButton.hidden = false;
     soundButton.setAttribute("aria-pressed", String(soundOn()));
-    soundButton.textContent = soundOn() ? "Sound on" : "Sound off";
+    soundButton.textContent = soundOn() ? gettext("Sound on") : gettext("Sound off");
   }
 
   soundButton.addEventListener("click", () => {
@@ -32,7 +32,7 @@
   showSound();
 
   function showPinned() {
-    pinButton.textContent = "This is my station";
+    pinButton.textContent = gettext("This is my station");
     pinButton.disabled = true;
   }
 
@@ -83,7 +83,8 @@
   function tick() {
     page.querySelectorAll("time[data-since]").forEach((el) => {
       const minutes = Math.max(0, Math.floor((Date.now() - Date.parse(el.dataset.since)) / 60000));
-      el.textContent = minutes < 1 ? "less than a minute" : `${minutes} min`;
+      el.textContent =
+        minutes < 1 ? gettext("less than a minute") : interpolate(gettext("%(minutes)s min"), { minutes }, true);
     });
   }
 

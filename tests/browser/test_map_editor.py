@@ -1,6 +1,6 @@
 """The floor editor in Chromium: an administrator draws a station and an edge, sees the diff
 and publishes; a nurse orders a delivery there at once; an invalid draft is refused with every
-problem named and the live map unchanged."""
+problem named and the live map unchanged. A station's name in Korean is given beside its own."""
 
 import pytest
 from playwright.sync_api import expect
@@ -37,6 +37,7 @@ def test_it_publishes_a_new_station_and_edge_that_a_nurse_orders_to_at_once(
 
     set_field(page, "#wp-code", "2F-XRAY")
     set_field(page, "#wp-name", "X-ray")
+    set_field(page, "#wp-name-ko", "영상의학과 접수")
     page.locator("#wp-kind").select_option("station")
     set_field(page, "#wp-x", "30")
     set_field(page, "#wp-y", "0")
@@ -54,7 +55,8 @@ def test_it_publishes_a_new_station_and_edge_that_a_nurse_orders_to_at_once(
     page.get_by_role("button", name="Publish").click()
     expect(page.locator("#publish-result")).to_have_text("Published version 2.")
     assert Site.objects.get(pk=site.pk).map_version == 2
-    assert Waypoint.objects.get(code="2F-XRAY").kind == "station"
+    published = Waypoint.objects.get(code="2F-XRAY")
+    assert (published.kind, published.names) == ("station", {"ko": "영상의학과 접수"})
 
     order = open_page(nurse, "/")
     order.get_by_label("Sender").fill("Pharmacy")

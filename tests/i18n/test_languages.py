@@ -123,9 +123,10 @@ def test_the_lock_out_page_speaks_korean(rf, db):
     assert "Too many" not in html
 
 
+@pytest.mark.parametrize("domain", ["django", "djangojs"])
 @pytest.mark.parametrize("language", ["ko", "it"])
-def test_each_catalog_is_complete(language):
-    catalog = LOCALE / language / "LC_MESSAGES" / "django.po"
+def test_each_catalog_is_complete(language, domain):
+    catalog = LOCALE / language / "LC_MESSAGES" / f"{domain}.po"
 
     checked = subprocess.run(
         ["msgfmt", "--check", "--statistics", "-o", "/dev/null", str(catalog)],

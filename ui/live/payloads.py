@@ -9,6 +9,7 @@ from django.utils import timezone
 
 from robots.choices import Presence, RobotStatus
 from robots.mapcache import floor_code_by_id, site_map, waypoint_by_id
+from robots.names import floor_label, place_label
 from scheduling.choices import TaskStatus
 from scheduling.deadlines import lateness_note
 
@@ -27,9 +28,9 @@ def robot_payload(robot) -> dict:
         "status": str(robot.status),
         "status_label": str(RobotStatus(robot.status).label),
         "floor": floor,
-        "floor_name": site_map(robot.site).floor_names.get(floor, "") if floor else "",
+        "floor_name": floor_label(site_map(robot.site), floor) if floor else "",
         "waypoint": waypoint.code if waypoint else None,
-        "place": waypoint.label if waypoint else None,
+        "place": place_label(waypoint) if waypoint else None,
         "x": x,
         "y": y,
         "heading": robot.heading,
@@ -97,7 +98,7 @@ def alert_payload(alert) -> dict:
     return {
         "id": alert.pk,
         "kind": alert.kind,
-        "message": alert.message,
+        "message": alert.text,
         "robot": alert.robot.code if alert.robot else None,
         "task": alert.task or None,
         "raised_at": alert.raised_at.isoformat(),
