@@ -5,19 +5,28 @@ JSON beside the English text, which the API, webhooks and logs keep using.
 
 Mark each msgid with gettext_noop where it is written, so makemessages finds it."""
 
-from dataclasses import dataclass, field
+import json
 
 from django.utils import translation
 
 
-@dataclass(frozen=True)
 class Said:
-    msgid: str
-    values: dict = field(default_factory=dict)
+    """An English msgid and its values; equal (and hashable) by what it says."""
+
+    __slots__ = ("msgid", "values")
 
     def __init__(self, msgid: str, **values):
-        object.__setattr__(self, "msgid", msgid)
-        object.__setattr__(self, "values", values)
+        self.msgid = msgid
+        self.values = values
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, Said) and self.as_json() == other.as_json()
+
+    def __hash__(self) -> int:
+        return hash(json.dumps(self.as_json(), sort_keys=True, default=str))
+
+    def __repr__(self) -> str:
+        return f"Said({self.msgid!r}, **{self.values!r})"
 
     def __str__(self) -> str:
         """In the active language."""

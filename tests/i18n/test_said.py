@@ -25,6 +25,7 @@ def test_said_words_come_back_from_json_and_speak_each_language():
     again = Said.from_json(said.as_json())
 
     assert again == said
+    assert len({again, said}) == 1  # outcomes of one refusal are gathered in a set
     assert again.in_english() == "R1 went offline carrying given to another robot"
     with translation.override("ko"):
         assert str(again) == "R1이(가) 다른 로봇에게 넘김을(를) 싣고 오프라인이 됨"
