@@ -204,6 +204,17 @@ def lease_drop_waiting(*, robot: Robot, now: datetime) -> int:
     return sum(_drop(robot=robot, resource=resource, now=now) for resource in resources)
 
 
+def lease_grants_take_back(*, resource: Resource) -> int:
+    """Queue again, each in its place, the robots granted the locked resource and not inside
+    yet (a fire alarm: the fire service recalls the cars); each is told `resource_queued`,
+    which replaces its grant. Robots inside keep their leases. Returns how many."""
+    taken = [lease for lease in _live(resource) if lease.state == LeaseState.GRANTED]
+    for lease in taken:
+        lease.grant_take_back()
+        _save_and_tell(lease, resource=resource, fields=GRANT_FIELDS)
+    return len(taken)
+
+
 def resource_queue(*, resource: Resource) -> list[Lease]:
     """Live leases of `resource` in service order: holders first, then the queue, next first."""
     return list(

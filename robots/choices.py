@@ -7,6 +7,8 @@ class WaypointKind(models.TextChoices):
     STATION = "station", "Station"
     DOCK = "dock", "Dock"
     RESOURCE_WAIT = "resource_wait", "Resource waiting area"
+    # Off the escape routes: where robots wait out a fire alarm (scheduling.services.emergency).
+    REFUGE = "refuge", "Refuge point"
 
 
 class ResourceKind(models.TextChoices):
