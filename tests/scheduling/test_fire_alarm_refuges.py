@@ -2,8 +2,6 @@
 one on its floor without a lift is sent there by a plan and keeps its tasks; the others stop
 where they are, but not in a lift lobby; a lift granted and not entered is taken back."""
 
-import copy
-
 import pytest
 
 from boards.models import BoardMessage
@@ -14,18 +12,12 @@ from robots.sitefile import SiteFileInvalid, site_load
 from scheduling.models import RobotPlan
 from scheduling.services import emergency_end, emergency_start, task_cancel
 from tests import factories
-from tests.factories import TINY_SITE, lease_acquire
+from tests.factories import lease_acquire
 from tests.scheduling.conftest import Beater, request, robot_ready, route
-
-REFUGE = {"code": "1F-REFUGE", "x": 10, "y": -8, "kind": "refuge", "name": "1F refuge"}
 
 
 def with_refuge() -> dict:
-    data = copy.deepcopy(TINY_SITE)
-    first = data["floors"][0]
-    first["waypoints"].append(REFUGE)
-    first["edges"].append(["1F-HALL", "1F-REFUGE"])
-    return data
+    return factories.tiny_site_with_refuge()
 
 
 @pytest.fixture
