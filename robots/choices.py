@@ -73,3 +73,4 @@ class EmergencySource(models.TextChoices):
 
     OPERATOR = "operator", "An operator, on the fleet page"
     API = "api", "A building management system, over the REST API"
+    BUILDING = "building", "The building's fire panel, over MQTT"

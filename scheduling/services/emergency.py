@@ -43,7 +43,13 @@ from boards.choices import MessageType
 from boards.services import board_post
 from resources.leases import lease_grants_take_back, resource_lock, resource_serve
 from robots.alerts import alert_raise, alerts_close
-from robots.choices import EmergencyKind, ResourceKind, RobotStatus, WaypointKind
+from robots.choices import (
+    EmergencyKind,
+    EmergencySource,
+    ResourceKind,
+    RobotStatus,
+    WaypointKind,
+)
 from robots.mapcache import floor_code_by_id, router_for, site_map
 from robots.models import AlertKind, Emergency, Resource, Robot, Site
 from robots.selectors import emergency_active, robot_position
@@ -147,6 +153,23 @@ def emergency_end(*, site: Site, via: str, by=None, now: datetime | None = None)
     for resource in Resource.objects.filter(site=site, kind=ResourceKind.ELEVATOR).order_by("pk"):
         resource_serve(resource=resource_lock(resource.pk), now=now)
     return EmergencyEnded(emergency=emergency, resumed=resumed, allocated=allocated)
+
+
+def emergency_panel_apply(*, site: Site, alarm: bool, floors: list[str], reason: str) -> bool:
+    """A fire panel's state (building.hooks.fire_panel_changed): start the alarm if none is
+    in force; end it only if the panel started it (an operator's drill outlives the panel's
+    retained "no alarm"). True if it started or ended one."""
+    active = emergency_active(site=site)
+    try:
+        if alarm and active is None:
+            emergency_start(site=site, floors=floors, reason=reason, via=EmergencySource.BUILDING)
+            return True
+        if not alarm and active is not None and active.started_via == EmergencySource.BUILDING:
+            emergency_end(site=site, via=EmergencySource.BUILDING)
+            return True
+    except EmergencyRefused:  # an operator or the API got there first: theirs stands
+        return False
+    return False
 
 
 def emergency_heartbeat_check(*, applied) -> bool:
