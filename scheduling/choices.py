@@ -92,6 +92,8 @@ class ResourceActionKind(models.TextChoices):
     HOLD_DOORS = "hold_doors", "Hold doors"
     RELEASE_DOORS = "release_doors", "Let doors go"
     SEND_CAR = "send_car", "Send car"
+    LIFT_PRIORITY = "lift_priority", "Lift priority"
+    PRIORITY_END = "priority_end", "Lift priority released"
 
 
 class MaintenanceActionKind(models.TextChoices):

@@ -315,10 +315,18 @@ class ResourceServiceSerializer(serializers.Serializer):
     in_service = serializers.BooleanField()
     out_of_service_since = serializers.DateTimeField(allow_null=True)
     out_of_service_reason = serializers.CharField()
+    priority_since = serializers.DateTimeField(
+        allow_null=True, help_text="an elevator held for an emergency team since then"
+    )
+    priority_reason = serializers.CharField()
 
 
 class ResourceOutOfServiceSerializer(serializers.Serializer):
     reason = StrictCharField(max_length=200, help_text="why, for the operators and the robots")
+
+
+class LiftPrioritySerializer(serializers.Serializer):
+    reason = StrictCharField(max_length=200, help_text="who needs the lift, for the operators")
 
 
 class FireAlarmStartSerializer(serializers.Serializer):

@@ -21,6 +21,7 @@ class AlertKind(models.TextChoices):
     RESOURCE_OUT_OF_SERVICE = "resource_out_of_service", "Elevator, door or corridor out of service"
     FIRE_ALARM = "fire_alarm", "Fire alarm: robots stopped, no lift granted, deliveries held"
     ROBOT_STUCK = "robot_stuck", "Robot reports moving but makes no progress"
+    LIFT_PRIORITY = "lift_priority", "Lift held for an emergency team: no robot is granted it"
 
 
 class AlertQuerySet(models.QuerySet):

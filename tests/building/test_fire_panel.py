@@ -15,8 +15,16 @@ pytestmark = pytest.mark.django_db
 
 
 @pytest.fixture
-def panel(prefix):
-    return f"{prefix}/tiny/fire_panel"
+def panel(prefix, controller):
+    topic = f"{prefix}/tiny/fire_panel"
+    yield topic
+    controller.publish(topic, b"", qos=1, retain=True).wait_for_publish(5)  # no leftovers
+
+
+def panel_state(controller, bridge, panel, payload, expect: str) -> None:
+    """As a fire panel's gateway publishes: retained, so the bridge reads it even while it
+    is still subscribing."""
+    publish_state(controller, bridge, panel, payload, expect, retain=True)
 
 
 def in_force(site) -> Emergency | None:
@@ -27,7 +35,7 @@ def test_the_panel_starts_the_alarm_on_its_floors_and_ends_it(site, controller, 
     robot = robot_ready(factories.robot_create(site, "R1"))
     alarm = {"alarm": True, "floors": ["1F", "2F"], "reason": "detector zone 3"}
 
-    publish_state(controller, bridge, panel, alarm, expect="applied")
+    panel_state(controller, bridge, panel, alarm, expect="applied")
 
     started = in_force(site)
     assert (started.floors, started.reason, started.started_via) == (
@@ -37,10 +45,10 @@ def test_the_panel_starts_the_alarm_on_its_floors_and_ends_it(site, controller, 
     )
     assert actions(robot) == ["pause"]
     assert Site.objects.get(pk=site.pk).fire_alarm_since == started.started_at
-    publish_state(controller, bridge, panel, alarm, expect="applied")  # repeated: nothing new
+    panel_state(controller, bridge, panel, alarm, expect="applied")  # repeated: nothing new
     assert Emergency.objects.count() == 1
 
-    publish_state(controller, bridge, panel, {"alarm": False}, expect="applied")
+    panel_state(controller, bridge, panel, {"alarm": False}, expect="applied")
 
     assert in_force(site) is None
     started.refresh_from_db()
@@ -56,7 +64,7 @@ def test_the_panel_never_ends_an_alarm_an_operator_started(
     panel,
 ):
     emergency_start(site=site, floors=[], reason="drill", via="operator", by=operator)
-    publish_state(controller, bridge, panel, {"alarm": False}, expect="applied")
+    panel_state(controller, bridge, panel, {"alarm": False}, expect="applied")
     assert in_force(site) is not None
     emergency_end(site=site, via="operator", by=operator)
 
@@ -71,7 +79,7 @@ def test_bad_panel_states_are_counted_and_change_nothing(site, controller, bridg
         {"alarm": True, "reason": 3},
     ]
     for n, payload in enumerate(bad, start=1):
-        publish_state(controller, bridge, panel, payload, expect="invalid")
+        panel_state(controller, bridge, panel, payload, expect="invalid")
         assert bridge.counts.invalid == n
     assert not Emergency.objects.exists()
     assert Site.objects.get(pk=site.pk).fire_alarm_since is None

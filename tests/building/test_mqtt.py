@@ -32,11 +32,12 @@ def next_request(controller, topic: str) -> dict:
     raise AssertionError(f"nothing on {topic} within {DEADLINE} s")
 
 
-def publish_state(controller, bridge, topic: str, payload, expect: str) -> None:
-    """Publish a state and run the bridge until it has applied or refused it: `expect`."""
+def publish_state(controller, bridge, topic: str, payload, expect: str, retain=False) -> None:
+    """Publish a state and run the bridge until it has applied or refused it: `expect`.
+    Retained, it reaches a bridge still subscribing too."""
     raw = payload if isinstance(payload, bytes) else json.dumps(payload).encode()
     before = (bridge.counts.applied, bridge.counts.invalid)
-    controller.publish(topic, raw, qos=1).wait_for_publish(5)
+    controller.publish(topic, raw, qos=1, retain=retain).wait_for_publish(5)
     deadline = time.monotonic() + DEADLINE
     while (bridge.counts.applied, bridge.counts.invalid) == before:
         assert time.monotonic() < deadline, f"the bridge never read {topic}"
