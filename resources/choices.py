@@ -23,3 +23,4 @@ class LeaseEndCause(models.TextChoices):
     GRANT_TIMEOUT = "grant_timeout", "Grant not taken up before it expired"
     ROBOT_OFFLINE = "robot_offline", "Robot went offline while waiting"
     ADMIN = "admin", "Administrator"
+    DEADLOCK = "deadlock", "Yielded to break a deadlock (queued again)"

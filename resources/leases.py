@@ -535,6 +535,13 @@ def resource_serve(*, resource: Resource, now: datetime) -> list[Lease]:
     return _serve(resource, _live(resource), now=now)
 
 
+def lease_board_sync(lease: Lease, *, resource: Resource, fresh=False) -> None:
+    """Make the robot's board and the pages show the lease as it now stands (resource row
+    locked), for other resource services."""
+    _board_sync(lease, resource=resource, fresh=fresh)
+    _publish(lease, resource)
+
+
 def resource_live_leases(resource: Resource) -> list[Lease]:
     """The locked resource's live leases in arrival order."""
     return _live(resource)

@@ -22,6 +22,7 @@ class AlertKind(models.TextChoices):
     FIRE_ALARM = "fire_alarm", "Fire alarm: robots stopped, no lift granted, deliveries held"
     ROBOT_STUCK = "robot_stuck", "Robot reports moving but makes no progress"
     LIFT_PRIORITY = "lift_priority", "Lift held for an emergency team: no robot is granted it"
+    LEASE_DEADLOCK = "lease_deadlock", "Robots waiting for each other's resources"
 
 
 class AlertQuerySet(models.QuerySet):

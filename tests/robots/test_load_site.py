@@ -453,7 +453,7 @@ def test_it_loads_the_demo_site(db):
     assert set(site.floors.values_list("level", flat=True)) == set(range(1, 16))
     assert site.waypoints.count() == 102
     assert site.waypoints.filter(kind="station").count() == 29
-    assert site.edges.count() == 83
+    assert site.edges.count() == 87
     assert dict(site.resources.values_list("code", "kind")) == {
         "ELEV-A": "elevator",
         "DOOR-2F-LAB": "door",
