@@ -124,13 +124,14 @@ def lease_deadlock_break(*, cycle: list[Hold], now: datetime) -> Lease | None:
 
 def _yield(lease: Lease, now: datetime) -> Lease:
     """End the unused grant and queue the robot again, last, for the same request."""
-    resource = lease.resource
+    resource, request_id = lease.resource, lease.request_id
     lease.end(state=LeaseState.REVOKED, cause=LeaseEndCause.DEADLOCK, now=now)
-    lease.save(update_fields=["state", "end_cause", "ended_at", "ended_by"])
+    lease.request_id = ""  # the request is answered by the new lease now (one lease each)
+    lease.save(update_fields=["state", "end_cause", "ended_at", "ended_by", "request_id"])
     again = Lease.objects.create(
         robot=lease.robot,
         resource=resource,
-        request_id=lease.request_id,
+        request_id=request_id,
         requested_at=now,
         from_floor_id=lease.from_floor_id,
         to_floor_id=lease.to_floor_id,

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from django.db import transaction
 from django.utils import timezone
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from boards.models import BoardMessage
@@ -115,6 +115,29 @@ STEPS = st.lists(
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
 @given(steps=STEPS)
+# Cycles of two robots holding grants, of two inside, and of three, whatever Hypothesis draws.
+@example(steps=[(0, "acquire", 1), (1, "acquire", 0), (0, "acquire", 0), (1, "acquire", 1)])
+@example(
+    steps=[
+        (0, "acquire", 1),
+        (0, "enter", 1),
+        (1, "acquire", 0),
+        (1, "enter", 0),
+        (0, "acquire", 0),
+        (1, "acquire", 1),
+    ]
+)
+@example(
+    steps=[
+        (0, "acquire", 0),
+        (1, "acquire", 1),
+        (2, "acquire", 2),
+        (2, "enter", 2),
+        (0, "acquire", 1),
+        (1, "acquire", 2),
+        (2, "acquire", 0),
+    ]
+)
 def test_after_each_sweep_no_cycle_is_left_that_the_server_could_break(eulji, steps):
     _site, robots, resources = eulji
     with transaction.atomic():
