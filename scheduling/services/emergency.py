@@ -173,9 +173,10 @@ def emergency_panel_apply(*, site: Site, alarm: bool, floors: list[str], reason:
 
 
 def emergency_heartbeat_check(*, applied) -> bool:
-    """Stop a robot that, while a fire alarm is in force, reports itself on a floor it covers
-    and outside any resource, and is not stopped yet; True if told to pause. Robot row locked
-    (a heartbeat's receiver); no query unless an alarm is in force at its site."""
+    """Send to a refuge, or else stop, a robot that, while a fire alarm is in force, reports
+    itself on a floor it covers, outside any resource and its waiting points, and was not
+    dealt with yet; True if it was. Robot row locked (a heartbeat's receiver); no query unless
+    an alarm is in force at its site."""
     robot = applied.robot
     if robot.site.fire_alarm_since is None or not applied.state_applied:
         return False
