@@ -17,12 +17,12 @@ from django.utils import timezone
 from building.adapters import mqtt as wire
 from building.choices import AdapterKind
 from building.models import Device
-from building.services import Report, device_report
-from robots.models import Floor
+from building.services import Report, device_report, fire_panel_report
+from robots.models import Floor, Site
 
 logger = logging.getLogger(__name__)
 
-LIFT_STATES, DOOR_STATES = "lift_states", "door_states"
+LIFT_STATES, DOOR_STATES, FIRE_PANEL = "lift_states", "door_states", "fire_panel"
 
 
 @dataclass
@@ -54,7 +54,11 @@ class MqttBridge:
     def _on_connect(self, client, userdata, flags, reason_code, properties):
         # (Re)subscribe on every connect: a reconnected session may have lost its subscriptions.
         client.subscribe(
-            [(f"{self.prefix}/+/{LIFT_STATES}/+", 1), (f"{self.prefix}/+/{DOOR_STATES}/+", 1)]
+            [
+                (f"{self.prefix}/+/{LIFT_STATES}/+", 1),
+                (f"{self.prefix}/+/{DOOR_STATES}/+", 1),
+                (f"{self.prefix}/+/{FIRE_PANEL}", 1),
+            ]
         )
 
     def _on_message(self, client, userdata, message):
@@ -76,6 +80,9 @@ class MqttBridge:
 
     def apply(self, topic: str, payload: bytes) -> bool:
         """Apply one state message; a bad one is logged and counted and changes nothing."""
+        site = self._fire_panel_site(topic)
+        if site is not None:
+            return self._fire_panel_apply(topic, payload, site)
         found = self._device_of(topic)
         if found is None:
             self.counts.unknown += 1
@@ -90,13 +97,30 @@ class MqttBridge:
             if report.floor is not None and not _floor_known(device, report.floor):
                 raise wire.StateInvalid(f"current_floor: no floor {report.floor!r} at this site")
         except wire.StateInvalid as invalid:
-            self.counts.invalid += 1
-            self.counts.reasons.append(f"{topic}: {invalid}")
-            logger.warning("invalid state on %s: %s", topic, invalid)
-            return False
+            return self._invalid(topic, invalid)
         device_report(device=device, report=report)
         self.counts.applied += 1
         return True
+
+    def _fire_panel_apply(self, topic: str, payload: bytes, site: Site) -> bool:
+        try:
+            report = wire.fire_panel_read(payload)
+            unknown = set(report["floors"]) - set(
+                Floor.objects.filter(site=site).values_list("code", flat=True)
+            )
+            if unknown:
+                raise wire.StateInvalid(f"floors: no floor {sorted(unknown)} at this site")
+        except wire.StateInvalid as invalid:
+            return self._invalid(topic, invalid)
+        fire_panel_report(site=site, **report)
+        self.counts.applied += 1
+        return True
+
+    def _invalid(self, topic: str, invalid: Exception) -> bool:
+        self.counts.invalid += 1
+        self.counts.reasons.append(f"{topic}: {invalid}")
+        logger.warning("invalid state on %s: %s", topic, invalid)
+        return False
 
     def publish_pending(self) -> int:
         """Publish each MQTT device's request not sent yet (retained, QoS 1)."""
@@ -132,6 +156,12 @@ class MqttBridge:
             )
         self.counts.published += 1
         return True
+
+    def _fire_panel_site(self, topic: str) -> Site | None:
+        parts = topic[len(self.prefix) + 1 :].split("/") if topic.startswith(self.prefix) else []
+        if len(parts) != 2 or parts[1] != FIRE_PANEL:
+            return None
+        return Site.objects.filter(code=parts[0]).first()
 
     def _device_of(self, topic: str) -> tuple[Device, str] | None:
         parts = topic[len(self.prefix) + 1 :].split("/") if topic.startswith(self.prefix) else []

@@ -27,6 +27,7 @@ from boards.choices import MessageType
 from boards.services import board_post
 from building.adapters.sim import SimState, sim_advance
 from building.choices import AdapterKind, DoorState, Motion
+from building.hooks import fire_panel_changed
 from building.models import Device
 from core import changes
 from resources.availability import resource_take_out_of_service
@@ -34,7 +35,7 @@ from resources.choices import HOLDING_LEASE_STATES, LeaseState
 from resources.leases import resource_lock
 from resources.models import Lease
 from robots.choices import ResourceKind
-from robots.models import Floor, Resource
+from robots.models import Floor, Resource, Site
 
 DRIVEN_KINDS = (ResourceKind.ELEVATOR, ResourceKind.DOOR)
 REQUEST_FIELDS = ["session", "requested_floor", "requested_door", "request_seq", "state_since"]
@@ -297,3 +298,13 @@ def silence_sweep(*, now: datetime) -> int:
 def _publish(device: Device) -> None:
     resource = device.resource
     changes.changed(kind=changes.RESOURCE, site_id=resource.site_id, subject=resource)
+
+
+# --- The fire panel -----------------------------------------------------------------------------
+
+
+@transaction.atomic
+def fire_panel_report(*, site: Site, alarm: bool, floors: list[str], reason: str) -> None:
+    """Apply a fire panel's state: its receivers start the site's fire alarm on `floors`, or
+    end the one the panel started (scheduling.services.emergency)."""
+    fire_panel_changed(site=site, alarm=alarm, floors=floors, reason=reason)

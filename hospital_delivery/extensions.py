@@ -20,6 +20,7 @@ from audit import receivers as audit
 from boards import push
 from boards.hooks import heartbeat_applied
 from building import receivers as building
+from building.hooks import fire_panel_changed
 from core import watchdog
 from core.changes import changed
 from hospital_delivery import privatefiles, sessions, signin
@@ -42,6 +43,8 @@ def connect() -> None:
     # A lease that changes drives its resource's lift or door: called to the robot's floor on
     # a grant, sent to its destination once it is inside, doors closed after it has left.
     lease_changed.connect(building.on_lease_changed)
+    # The building's fire panel starts or ends the site's fire alarm.
+    fire_panel_changed.connect(scheduling.on_fire_panel_changed)
     # A resource out of or back in service: routes are planned again (after commit).
     availability_changed.connect(scheduling.on_availability_changed)
     # A robot's new token closes the push sockets opened with its old one, and is audited.

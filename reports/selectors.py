@@ -20,7 +20,7 @@ from django.db.models.functions import Coalesce, Concat, ExtractHour, NullIf, Ro
 
 from reports.aggregates import Seconds
 from resources.models import Lease
-from robots.models import Alert, Robot, RobotActivity, Site
+from robots.models import Alert, AlertKind, Robot, RobotActivity, Site
 from scheduling.choices import StopAction, TaskStatus
 from scheduling.models import Task, TaskStop, TaskTransition
 
@@ -248,6 +248,23 @@ def failures_by_cause(period: Period, *, now: datetime) -> dict[str, int]:
     return result | {f"alert:{row['kind']}": row["n"] for row in alerts}
 
 
+def stuck_by_robot(period: Period, *, now: datetime) -> dict[str, int]:
+    """{robot code: n}: the times each robot got stuck (reported moving without progress past
+    the site's stuck_timeout), one alert each (scheduling/services/stuck.py)."""
+    raised = (
+        Alert.objects.filter(
+            site=period.site,
+            kind=AlertKind.ROBOT_STUCK,
+            raised_at__gte=period.start,
+            raised_at__lt=period.end,
+        )
+        .order_by()
+        .values("robot__code")
+        .annotate(n=Count("pk"))
+    )
+    return {row["robot__code"] or "": row["n"] for row in raised}
+
+
 FIGURES = {
     "per_day": deliveries_per_day,
     "per_hour": deliveries_per_hour,
@@ -256,4 +273,5 @@ FIGURES = {
     "utilisation": robot_utilisation,
     "resource_waits": resource_waits,
     "failures": failures_by_cause,
+    "stuck": stuck_by_robot,
 }

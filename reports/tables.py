@@ -122,6 +122,10 @@ def failure_rows(period: Period, counts: dict) -> list[dict]:
     return sorted(rows, key=lambda row: (row["what"], -row["count"], row["cause"]))
 
 
+def stuck_rows(period: Period, counts: dict) -> list[dict]:
+    return [{"robot": code or "?", "stuck": counts[code]} for code in sorted(counts)]
+
+
 def _turnaround_columns(key: str, heading: str) -> list[tuple[str, str]]:
     return [
         (key, heading),
@@ -223,6 +227,15 @@ TABLES = [
         chart="bar",
         label="cause",
         series=["count"],
+    ),
+    Table(
+        "stuck",
+        "Stuck robots (moving without progress)",
+        [("robot", "Robot"), ("stuck", "Times stuck")],
+        stuck_rows,
+        chart="bar",
+        label="robot",
+        series=["stuck"],
     ),
 ]
 BY_KEY = {table.key: table for table in TABLES}

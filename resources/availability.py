@@ -22,6 +22,7 @@ from core import changes
 from core.said import Said
 from resources.hooks import availability_changed
 from resources.leases import (
+    lease_grants_take_back,
     out_of_service_tell,
     resource_live_leases,
     resource_lock,
@@ -83,6 +84,56 @@ def resource_return_to_service(*, resource: Resource, actor=None, now: datetime 
     alerts_close(key=_alert_key(resource), by=actor, at=now)
     resource_serve(resource=resource, now=now)
     return True
+
+
+@transaction.atomic
+def resource_priority_start(
+    *, resource: Resource, reason: str, actor=None, now: datetime | None = None
+) -> bool:
+    """Hold an elevator for an emergency team: its holder finishes its ride, a grant not
+    used yet is taken back, nobody is granted it and routes avoid it until
+    resource_priority_end; False (nothing changed) if it already was held."""
+    now = now or timezone.now()
+    resource = resource_lock(resource.pk)
+    if resource.in_priority:
+        return False
+    resource.priority_since, resource.priority_reason = now, reason[:REASON_MAX]
+    resource.save(update_fields=["priority_since", "priority_reason"])
+    lease_grants_take_back(resource=resource)
+    _changed(resource, now=now)
+    who = f" by {actor.get_username()}" if actor is not None else ""
+    alert_raise(
+        site_id=resource.site_id,
+        kind=AlertKind.LIFT_PRIORITY,
+        key=_priority_key(resource),
+        message=(
+            f"{resource.code} is held for an emergency team{who}: {resource.priority_reason}. "
+            "The robot inside finishes its ride; no robot is granted it until it is released; "
+            "robots go another way where there is one, the others wait."
+        ),
+        resource=resource,
+    )
+    return True
+
+
+@transaction.atomic
+def resource_priority_end(*, resource: Resource, actor=None, now: datetime | None = None) -> bool:
+    """Release an elevator held for an emergency team: its queue is granted in order; False if
+    it was not held."""
+    now = now or timezone.now()
+    resource = resource_lock(resource.pk)
+    if not resource.in_priority:
+        return False
+    resource.priority_since, resource.priority_reason = None, ""
+    resource.save(update_fields=["priority_since", "priority_reason"])
+    _changed(resource, now=now)
+    alerts_close(key=_priority_key(resource), by=actor, at=now)
+    resource_serve(resource=resource, now=now)
+    return True
+
+
+def _priority_key(resource: Resource) -> str:
+    return f"lift-priority:{resource.pk}"
 
 
 def _changed(resource: Resource, *, now: datetime) -> None:

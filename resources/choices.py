@@ -24,3 +24,4 @@ class LeaseEndCause(models.TextChoices):
     GRANT_TIMEOUT = "grant_timeout", _("Grant not taken up before it expired")
     ROBOT_OFFLINE = "robot_offline", _("Robot went offline while waiting")
     ADMIN = "admin", _("Administrator")
+    DEADLOCK = "deadlock", _("Yielded to break a deadlock (queued again)")

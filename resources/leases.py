@@ -204,6 +204,17 @@ def lease_drop_waiting(*, robot: Robot, now: datetime) -> int:
     return sum(_drop(robot=robot, resource=resource, now=now) for resource in resources)
 
 
+def lease_grants_take_back(*, resource: Resource) -> int:
+    """Queue again, each in its place, the robots granted the locked resource and not inside
+    yet (a fire alarm: the fire service recalls the cars); each is told `resource_queued`,
+    which replaces its grant. Robots inside keep their leases. Returns how many."""
+    taken = [lease for lease in _live(resource) if lease.state == LeaseState.GRANTED]
+    for lease in taken:
+        lease.grant_take_back()
+        _save_and_tell(lease, resource=resource, fields=GRANT_FIELDS)
+    return len(taken)
+
+
 def resource_queue(*, resource: Resource) -> list[Lease]:
     """Live leases of `resource` in service order: holders first, then the queue, next first."""
     return list(
@@ -341,7 +352,7 @@ def _acquire(*, robot: Robot, resource: Resource, request_id: str, to_floor, now
     lease.save()
     position = sum(each.state == LeaseState.QUEUED for each in live) + 1
     _board_sync(lease, resource=resource, position=position, fresh=True)
-    if not resource.in_service:  # queued: the robot hears why, and may go another way
+    if not resource.grantable:  # queued: the robot hears why, and may go another way
         out_of_service_tell(lease.robot, resource)
     _publish(lease, resource)
     return lease
@@ -489,8 +500,8 @@ def _queued_body(lease: Lease, resource: Resource, position: int) -> dict:
 
 def out_of_service_tell(robot: Robot, resource: Resource) -> None:
     """Post `robot` the resource's service state (one message per robot and resource: the
-    newest replaces one not acked yet)."""
-    if resource.in_service:
+    newest replaces one not acked yet). A lift in priority mode is out of service to robots."""
+    if resource.grantable:
         type, body = (
             MessageType.RESOURCE_IN_SERVICE,
             protocol.in_service_body(resource=resource.code),
@@ -499,8 +510,8 @@ def out_of_service_tell(robot: Robot, resource: Resource) -> None:
         type = MessageType.RESOURCE_OUT_OF_SERVICE
         body = protocol.out_of_service_body(
             resource=resource.code,
-            since=resource.out_of_service_since,
-            reason=resource.out_of_service_reason,
+            since=resource.out_of_service_since or resource.priority_since,
+            reason=resource.out_of_service_reason or f"Lift priority: {resource.priority_reason}",
         )
     board_post(robot=robot, type=type, body=body, key=f"service:{resource.pk}", supersede=True)
 
@@ -522,6 +533,13 @@ def resource_lock(pk: int) -> Resource:
 def resource_serve(*, resource: Resource, now: datetime) -> list[Lease]:
     """Grant the waiting leases of a locked resource while a unit is free."""
     return _serve(resource, _live(resource), now=now)
+
+
+def lease_board_sync(lease: Lease, *, resource: Resource, fresh=False) -> None:
+    """Make the robot's board and the pages show the lease as it now stands (resource row
+    locked), for other resource services."""
+    _board_sync(lease, resource=resource, fresh=fresh)
+    _publish(lease, resource)
 
 
 def resource_live_leases(resource: Resource) -> list[Lease]:
@@ -554,8 +572,8 @@ def _of_robot(live: list[Lease], robot: Robot) -> Lease | None:
 
 
 def _free(resource: Resource, live: list[Lease]) -> int:
-    if not resource.in_service:
-        return 0  # its waiting robots are held in the queue until it is back
+    if not resource.grantable:
+        return 0  # its waiting robots are held in the queue until it is back (or released)
     if resource.is_elevator and resource.site.fire_alarm_since is not None:
         return 0  # the fire service has the cars: queued until the all-clear
     return resource.capacity - sum(lease.holds for lease in live)

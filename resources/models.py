@@ -147,6 +147,11 @@ class Lease(models.Model):
         self.granted_at = now
         self.expires_at = now + timedelta(seconds=timeout)
 
+    def grant_take_back(self) -> None:
+        """Back in the queue, in its old place (lease pk order): a grant not used yet."""
+        self.state = LeaseState.QUEUED
+        self.granted_at = self.expires_at = None
+
     def enter(self, *, now: datetime) -> None:
         self.state = LeaseState.ENTERED
         self.entered_at = now

@@ -7,6 +7,8 @@ class WaypointKind(models.TextChoices):
     STATION = "station", _("Station")
     DOCK = "dock", _("Dock")
     RESOURCE_WAIT = "resource_wait", _("Resource waiting area")
+    # Off the escape routes: where robots wait out a fire alarm (scheduling.services.emergency).
+    REFUGE = "refuge", _("Refuge point")
 
 
 class ResourceKind(models.TextChoices):
@@ -71,3 +73,4 @@ class EmergencySource(models.TextChoices):
 
     OPERATOR = "operator", _("An operator, on the fleet page")
     API = "api", _("A building management system, over the REST API")
+    BUILDING = "building", _("The building's fire panel, over MQTT")

@@ -141,7 +141,8 @@ def _resources(site: Site, codes_by_id: dict[int, str]) -> list[MapResource]:
             overhead_seconds=r.overhead_seconds,
             waypoints=tuple(sorted(stops.get(r.id, []))),
             names=names_tuple(r.names),
-            out_of_service=r.out_of_service_since is not None,
+            # A lift in priority mode is routed round like one out of service.
+            out_of_service=r.out_of_service_since is not None or r.priority_since is not None,
         )
         for r in Resource.objects.filter(site=site)
     ]

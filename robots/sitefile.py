@@ -635,6 +635,12 @@ class _Validation:
                     f"'{wp.code}' is of kind resource_wait but no resource waits there "
                     "(list it in a resource's stops or waiting, or make it plain)",
                 )
+            if wp.kind == WaypointKind.REFUGE and wp.code in self.waiting:
+                self._problem(
+                    wp.path,
+                    f"'{wp.code}' is a refuge point but a resource waits there: a refuge "
+                    "must be off the lobbies, doorways and corridors robots pass through",
+                )
 
     # Robots
 

@@ -490,8 +490,13 @@ class SimRobot:
     def _serve(self, stop: dict) -> Program:
         action = stop["action"]
         if action == DOCK:
-            self.stops.remove(stop)
-            logger.info("%s: docked at %s", self.code, self.waypoint)
+            if stop is self.stops[-1]:
+                self.stops.remove(stop)
+                logger.info("%s: docked at %s", self.code, self.waypoint)
+                return
+            # A dock stop with stops after it (a refuge in a fire alarm): wait there for the
+            # next plan, which the rest of the route then follows.
+            yield from self._idle()
             return
         task, index = stop["task"], stop["stop"]
         self._event("arrived", task=task, stop=index)

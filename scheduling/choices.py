@@ -92,6 +92,8 @@ class ResourceActionKind(models.TextChoices):
     HOLD_DOORS = "hold_doors", _("Hold doors")
     RELEASE_DOORS = "release_doors", _("Let doors go")
     SEND_CAR = "send_car", _("Send car")
+    LIFT_PRIORITY = "lift_priority", _("Lift priority")
+    PRIORITY_END = "priority_end", _("Lift priority released")
 
 
 class MaintenanceActionKind(models.TextChoices):

@@ -4,7 +4,7 @@ hospital_delivery/extensions.py)."""
 from robots.choices import Presence
 from scheduling import services
 from scheduling.services.charging import robot_battery_check
-from scheduling.services.emergency import emergency_heartbeat_check
+from scheduling.services.emergency import emergency_heartbeat_check, emergency_panel_apply
 from scheduling.services.etas import heartbeat_progress
 from scheduling.services.plans import plan_restore
 
@@ -29,3 +29,7 @@ def on_presence_changed(*, robot, old, new, at) -> None:
 def on_availability_changed(*, resource, now) -> None:
     """A resource went out of or back into service: routes are planned again after commit."""
     services.reroute_enqueue(site_id=resource.site_id, resource=resource.code)
+
+
+def on_fire_panel_changed(*, site, alarm, floors, reason) -> None:
+    emergency_panel_apply(site=site, alarm=alarm, floors=floors, reason=reason)

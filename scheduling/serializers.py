@@ -315,10 +315,18 @@ class ResourceServiceSerializer(serializers.Serializer):
     in_service = serializers.BooleanField()
     out_of_service_since = serializers.DateTimeField(allow_null=True)
     out_of_service_reason = serializers.CharField()
+    priority_since = serializers.DateTimeField(
+        allow_null=True, help_text="an elevator held for an emergency team since then"
+    )
+    priority_reason = serializers.CharField()
 
 
 class ResourceOutOfServiceSerializer(serializers.Serializer):
     reason = StrictCharField(max_length=200, help_text="why, for the operators and the robots")
+
+
+class LiftPrioritySerializer(serializers.Serializer):
+    reason = StrictCharField(max_length=200, help_text="who needs the lift, for the operators")
 
 
 class FireAlarmStartSerializer(serializers.Serializer):
@@ -345,11 +353,16 @@ class FireAlarmSerializer(serializers.Serializer):
     started_by = serializers.CharField(allow_null=True)
     started_via = serializers.CharField(allow_null=True)
     stopped_robots = serializers.ListField(child=serializers.CharField(), allow_null=True)
+    refuges = serializers.DictField(
+        child=serializers.CharField(),
+        allow_null=True,
+        help_text="robot code -> the refuge point it was sent to",
+    )
 
     @staticmethod
     def of(site: Site, emergency) -> dict:
         if emergency is None:
-            keys = ("floors", "reason", "started_at", "started_by", "started_via")
+            keys = ("floors", "reason", "started_at", "started_by", "started_via", "refuges")
             return {"site": site.code, "active": False, "stopped_robots": None} | dict.fromkeys(
                 keys
             )
@@ -363,6 +376,7 @@ class FireAlarmSerializer(serializers.Serializer):
             "started_by": by.get_username() if by is not None else None,
             "started_via": emergency.started_via,
             "stopped_robots": emergency.stopped_robots,
+            "refuges": emergency.refuges,
         }
 
 

@@ -3,6 +3,8 @@ from django.urls import path
 from scheduling.views import (
     FireAlarmAllClearView,
     FireAlarmView,
+    LiftPriorityEndView,
+    LiftPriorityView,
     ResourceListView,
     ResourceOutOfServiceView,
     ResourceReturnToServiceView,
@@ -34,6 +36,16 @@ urlpatterns = [
         "robots/<str:robot>/return-to-service",
         RobotReturnToServiceView.as_view(),
         name="robot-return-to-service",
+    ),
+    path(
+        "sites/<str:site>/resources/<str:code>/priority",
+        LiftPriorityView.as_view(),
+        name="lift-priority",
+    ),
+    path(
+        "sites/<str:site>/resources/<str:code>/priority/end",
+        LiftPriorityEndView.as_view(),
+        name="lift-priority-end",
     ),
     path("sites/<str:site>/fire-alarm", FireAlarmView.as_view(), name="fire-alarm"),
     path(

@@ -17,6 +17,7 @@ from scheduling.selectors import task_detail, task_detail_of, task_list
 from scheduling.serializers import (
     FireAlarmSerializer,
     FireAlarmStartSerializer,
+    LiftPrioritySerializer,
     ResourceOutOfServiceSerializer,
     ResourceServiceSerializer,
     RobotMaintenanceSerializer,
@@ -30,6 +31,7 @@ from scheduling.services import (
     TaskNotCancellable,
     emergency_end,
     emergency_start,
+    resource_operator_set_priority,
     resource_operator_set_service,
     robot_maintenance_end,
     robot_maintenance_start,
@@ -342,3 +344,56 @@ def _robot(code: str) -> Robot:
     if found is None:
         raise exceptions.NotFound(f"no robot {code!r}")
     return found
+
+
+class LiftPriorityView(APIView):
+    """Hold an elevator for an emergency team (operators too: a building management system
+    signs in as one): its holder finishes its ride, nobody is granted it until released."""
+
+    permission_classes = [IsOperator]
+
+    @extend_schema(
+        operation_id="lift_priority_start",
+        summary="Hold an elevator for an emergency team: no robot is granted it until released",
+        request=LiftPrioritySerializer,
+        responses={200: ResourceServiceSerializer, **RESOURCE_ERRORS},
+        tags=["emergencies"],
+    )
+    def post(self, request, site, code):
+        resource = _elevator(request, site, code)
+        form = LiftPrioritySerializer(data=request.data)
+        form.is_valid(raise_exception=True)
+        done = resource_operator_set_priority(
+            resource=resource, on=True, by=request.user, reason=form.validated_data["reason"]
+        )
+        if done is None:
+            raise Conflict(f"{code} is already held for an emergency team")
+        return Response(ResourceServiceSerializer(_resource(site, code)).data)
+
+
+class LiftPriorityEndView(APIView):
+    """Release an elevator held for an emergency team: its queue is granted in order."""
+
+    permission_classes = [IsOperator]
+
+    @extend_schema(
+        operation_id="lift_priority_end",
+        summary="Release an elevator held for an emergency team",
+        request=None,
+        responses={200: ResourceServiceSerializer, **RESOURCE_ERRORS},
+        tags=["emergencies"],
+    )
+    def post(self, request, site, code):
+        resource = _elevator(request, site, code)
+        if resource_operator_set_priority(resource=resource, on=False, by=request.user) is None:
+            raise Conflict(f"{code} is not held for an emergency team")
+        return Response(ResourceServiceSerializer(_resource(site, code)).data)
+
+
+def _elevator(request, site: str, code: str) -> Resource:
+    """The site's elevator `code` (404 otherwise, as for a site that is not the user's)."""
+    found = _site(request, site)
+    resource = _resource(found.code, code)
+    if not resource.is_elevator:
+        raise exceptions.NotFound(f"{code!r} is not an elevator")
+    return resource

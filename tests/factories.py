@@ -112,6 +112,17 @@ TINY_SITE = {
 _robot_numbers = itertools.count(1)
 
 
+def tiny_site_with_refuge() -> dict:
+    """The tiny site with a refuge point on 1F, off its hall (a fire alarm's)."""
+    data = copy.deepcopy(TINY_SITE)
+    first = data["floors"][0]
+    first["waypoints"].append(
+        {"code": "1F-REFUGE", "x": 10, "y": -8, "kind": "refuge", "name": "1F refuge"}
+    )
+    first["edges"].append(["1F-HALL", "1F-REFUGE"])
+    return data
+
+
 def site_create(*, members=None, **overrides) -> Site:
     """The tiny site; every nurse and operator made so far is a member of it unless `members`
     names who is."""

@@ -13,6 +13,7 @@ from django.http import Http404, HttpResponseBadRequest, JsonResponse
 from django.shortcuts import get_object_or_404, redirect, render
 from django.urls import reverse
 from django.utils.http import url_has_allowed_host_and_scheme
+from django.utils.translation import gettext as _
 from django.views.decorators.http import require_POST
 
 from building.services import DRIVEN_KINDS, device_hold_doors, device_send_car
@@ -31,6 +32,7 @@ from scheduling.services import (
     emergency_end,
     emergency_start,
     resource_operator_record,
+    resource_operator_set_priority,
     resource_operator_set_service,
     robot_action,
     robot_maintenance_end,
@@ -41,6 +43,7 @@ from ui.forms import (
     CarSendForm,
     DoorHoldForm,
     FireAlarmForm,
+    LiftPriorityForm,
     ResourceServiceForm,
     RobotActionForm,
     RobotMaintenanceForm,
@@ -168,6 +171,28 @@ def resource_service_post(request, site: str, code: str):
 
 @require_POST
 @operator_required
+def resource_priority_post(request, site: str, code: str):
+    """An operator holds a lift for an emergency team, or releases it (the page asked to
+    confirm, saying what follows)."""
+    resource = _resource_of(request, site, code)
+    if not resource.is_elevator:
+        raise Http404(f"{code} is not an elevator")
+    form = LiftPriorityForm(request.POST)
+    if not form.is_valid():
+        return _invalid(form.errors)
+    on, reason = form.cleaned_data["on"], form.cleaned_data["reason"]
+    done = resource_operator_set_priority(resource=resource, on=on, by=request.user, reason=reason)
+    if done is None:
+        messages.info(request, _("Nothing changed: %(code)s already was so.") % {"code": code})
+    elif on:
+        messages.success(request, _("%(code)s is held for the emergency team.") % {"code": code})
+    else:
+        messages.success(request, _("%(code)s is released to the robots.") % {"code": code})
+    return _back_to_fleet(resource)
+
+
+@require_POST
+@operator_required
 def resource_doors_post(request, site: str, code: str):
     resource = _resource_of(request, site, code, driven=True)
     form = DoorHoldForm(request.POST)
@@ -256,6 +281,8 @@ def alert_acknowledge_post(request, pk: int):
     site_required(request.user, alert.site_id, "such alert")
     if alert.kind == AlertKind.FIRE_ALARM:
         messages.info(request, "A fire alarm's notice stays until the all-clear.")
+    elif alert.kind == AlertKind.LIFT_PRIORITY:
+        messages.info(request, _("A lift priority's notice stays until the lift is released."))
     elif not alert_acknowledge(alert=alert, user=request.user):
         messages.info(request, "Someone had already acknowledged that alert.")
     back = request.POST.get("next", "")

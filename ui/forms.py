@@ -331,6 +331,21 @@ class ResourceServiceForm(forms.Form):
         return cleaned
 
 
+class LiftPriorityForm(forms.Form):
+    """An operator holds an elevator for an emergency team (with a reason) or releases it."""
+
+    on = forms.TypedChoiceField(
+        choices=[("true", "hold"), ("false", "release")], coerce=lambda value: value == "true"
+    )
+    reason = forms.CharField(max_length=200, required=False, strip=True)
+
+    def clean(self):
+        cleaned = super().clean()
+        if cleaned.get("on") is True and not cleaned.get("reason"):
+            self.add_error("reason", "say who needs the lift")
+        return cleaned
+
+
 class DoorHoldForm(forms.Form):
     hold = forms.TypedChoiceField(
         choices=[("true", "hold"), ("false", "let go")], coerce=lambda value: value == "true"

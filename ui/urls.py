@@ -28,6 +28,11 @@ urlpatterns = [
         fleet.resource_service_post,
         name="resource-service",
     ),
+    path(
+        "resources/<str:site>/<str:code>/priority",
+        fleet.resource_priority_post,
+        name="resource-priority",
+    ),
     path("resources/<str:site>/<str:code>/doors", fleet.resource_doors_post, name="resource-doors"),
     path("resources/<str:site>/<str:code>/car", fleet.resource_car_post, name="resource-car"),
     path("sites/<str:site>/fire-alarm", fleet.fire_alarm_post, name="fire-alarm-page"),

@@ -196,6 +196,8 @@ def order_build(
             last = nodes[-1]
             action = _action(ident, kind, options.parameters(kind, last.waypoint))
             nodes[-1] = OrderNode(last.seq, last.waypoint, (*last.actions, action))
+        if stop["action"] == "dock":
+            break  # a robot waits at a dock stop for its next plan (a refuge: the all-clear's)
     edges = _edges(site_map, nodes)
     crossings = _crossings(site_map, edges)
     for crossing in crossings:

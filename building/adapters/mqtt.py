@@ -6,6 +6,8 @@ Topics, under settings.BUILDING_MQTT_PREFIX and the site's code:
     <prefix>/<site>/lift_states/<lift>      the controller publishes (Open-RMF LiftState)
     <prefix>/<site>/door_requests/<door>    the server publishes   (Open-RMF DoorRequest)
     <prefix>/<site>/door_states/<door>      the controller publishes (Open-RMF DoorState)
+    <prefix>/<site>/fire_panel              the fire panel's gateway publishes (FirePanel,
+                                            ours: Open-RMF has no such message)
 
 Payloads are JSON objects with Open-RMF's field names and numeric constants. The bridge
 (`manage.py building_bridge`, the Procfile's `building`) publishes each new request (QoS 1,
@@ -104,6 +106,23 @@ def door_state_read(payload: bytes, name: str) -> dict:
     if value not in DOOR_BY_CODE:
         raise StateInvalid("current_mode.value out of range")
     return {"door": DOOR_BY_CODE[value], "fault": ""}
+
+
+def fire_panel_read(payload: bytes) -> dict:
+    """A FirePanel state: {"alarm": bool, "floors": [codes] (empty or left out: every
+    floor), "reason": str (optional)}; StateInvalid if it is not one. Floors are checked
+    against the site by the bridge."""
+    data = _object(payload)
+    alarm = data.get("alarm")
+    if not isinstance(alarm, bool):
+        raise StateInvalid("alarm: missing or not true/false")
+    floors = data.get("floors", [])
+    if not isinstance(floors, list) or not all(isinstance(code, str) for code in floors):
+        raise StateInvalid("floors: not a list of floor codes")
+    reason = data.get("reason", "")
+    if not isinstance(reason, str):
+        raise StateInvalid("reason: not a string")
+    return {"alarm": alarm, "floors": floors, "reason": reason}
 
 
 def _object(payload: bytes) -> dict:

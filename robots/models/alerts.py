@@ -27,6 +27,8 @@ class AlertKind(models.TextChoices):
     FIRE_ALARM = "fire_alarm", _("Fire alarm: robots stopped, no lift granted, deliveries held")
     ROBOT_STUCK = "robot_stuck", _("Robot reports moving but makes no progress")
     LIFT_CAR_MISSING = "lift_car_missing", _("Robot held at a lift whose car does not come")
+    LIFT_PRIORITY = "lift_priority", _("Lift held for an emergency team: no robot is granted it")
+    LEASE_DEADLOCK = "lease_deadlock", _("Robots waiting for each other's resources")
 
 
 class AlertQuerySet(models.QuerySet):

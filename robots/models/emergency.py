@@ -38,6 +38,11 @@ class Emergency(models.Model):
     stopped_robots = models.JSONField(
         default=list, blank=True, help_text="codes of the robots it paused, resumed at its end"
     )
+    refuges = models.JSONField(
+        default=dict,
+        blank=True,
+        help_text="robot code -> the refuge point it was sent to, replanned at its end",
+    )
 
     objects = EmergencyQuerySet.as_manager()
 

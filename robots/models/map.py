@@ -178,6 +178,10 @@ class Resource(models.Model):
     # another way exists. Set by an operator or by its building device's fault or silence.
     out_of_service_since = models.DateTimeField(null=True, blank=True, editable=False)
     out_of_service_reason = models.CharField(max_length=200, blank=True, editable=False)
+    # Lift priority (resources/availability.py): an emergency team has the lift. Its holder
+    # finishes its ride; nobody is granted it and routes avoid it until an operator ends it.
+    priority_since = models.DateTimeField(null=True, blank=True, editable=False)
+    priority_reason = models.CharField(max_length=200, blank=True, editable=False)
 
     class Meta:
         ordering = ["site", "code"]
@@ -195,6 +199,15 @@ class Resource(models.Model):
     @property
     def in_service(self) -> bool:
         return self.out_of_service_since is None
+
+    @property
+    def in_priority(self) -> bool:
+        return self.priority_since is not None
+
+    @property
+    def grantable(self) -> bool:
+        """In service and not held for an emergency team: robots may be granted it."""
+        return self.in_service and not self.in_priority
 
     def ride_seconds(self, from_level: int, to_level: int) -> float:
         return self.overhead_seconds + self.seconds_per_floor * abs(to_level - from_level)

@@ -41,6 +41,7 @@ from scheduling.services.maintenance import (
 )
 from scheduling.services.operator import (
     resource_operator_record,
+    resource_operator_set_priority,
     resource_operator_set_service,
     robot_action,
 )
@@ -67,6 +68,7 @@ __all__ = [
     "recurring_sweep",
     "reroute_enqueue",
     "resource_operator_record",
+    "resource_operator_set_priority",
     "resource_operator_set_service",
     "robot_action",
     "robot_fault",

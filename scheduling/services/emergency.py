@@ -2,21 +2,28 @@
 
 While it is in force at a site:
 
-* every robot on the floors it covers is told to pause (protocol v1 `action`), so it stops
-  where it is; VDA 5050 vehicles get `startPause` from the bridge. A robot an operator had
-  already paused stays as the operator left it. A robot inside a lift, a door or a corridor
-  (`in_resource`) is not stopped there, where it would block the car or a fire door: it is
-  told to pause by its first heartbeat outside (emergency_heartbeat_check), like a robot that
-  reaches a covered floor, or comes back online, while the alarm lasts;
+* every robot on the floors it covers that can reach a refuge point (a waypoint of kind
+  `refuge`) on its floor without a lift is sent to the nearest one by a plan: a `dock` stop
+  there, then its task stops (plans.plan_refuge_post), so it keeps its tasks and waits there;
+  VDA 5050 vehicles get the order the bridge makes of it, which ends at the refuge. Any other
+  robot there is told to pause (protocol v1 `action`), so it stops where it is; VDA 5050
+  vehicles get `startPause`. A robot an operator had already paused stays as the operator
+  left it. A robot inside a lift, a door or a corridor (`in_resource`), or standing in the
+  lobby or doorway where robots wait for one, is not stopped there, where it would block the
+  car or a fire door: it is dealt with by its first heartbeat outside
+  (emergency_heartbeat_check), like a robot that reaches a covered floor, or comes back
+  online, while the alarm lasts;
 * no elevator of the site is granted (resources.leases._free reads Site.fire_alarm_since):
-  the fire service recalls the cars, robots already inside keep their lease until they leave;
+  the fire service recalls the cars. A grant not yet used is taken back (the robot is queued
+  again, first in line); robots already inside keep their lease until they leave;
 * nothing is planned (the allocator holds every due task with a reason the pages show); new
   deliveries are still accepted and wait, in their order;
 * every page of the site shows it, as an alert no operator can acknowledge away.
 
 The all-clear resumes the robots the alarm paused (not those an operator paused meanwhile),
-grants the elevators' queues in order, and allocates the held deliveries in their order, with
-new ETAs. Nothing is cancelled or failed by the alarm, so nothing is lost or done twice.
+posts the robots it sent to refuges their plans without the refuge, grants the elevators'
+queues in order, and allocates the held deliveries in their order, with new ETAs. Nothing is
+cancelled or failed by the alarm, so nothing is lost or done twice.
 
 Lock order, as everywhere in the scheduler: the site's allocation lock first (so no allocation
 is half-way when the flag changes), then robot rows one by one, then the Emergency row (a
@@ -34,21 +41,29 @@ from audit.services import entry_record
 from boards import protocol
 from boards.choices import MessageType
 from boards.services import board_post
-from resources.leases import resource_lock, resource_serve
+from resources.leases import lease_grants_take_back, resource_lock, resource_serve
 from robots.alerts import alert_raise, alerts_close
-from robots.choices import EmergencyKind, ResourceKind, RobotStatus
-from robots.mapcache import floor_code_by_id, site_map
+from robots.choices import (
+    EmergencyKind,
+    EmergencySource,
+    ResourceKind,
+    RobotStatus,
+    WaypointKind,
+)
+from robots.mapcache import floor_code_by_id, router_for, site_map
 from robots.models import AlertKind, Emergency, Resource, Robot, Site
-from robots.selectors import emergency_active
+from robots.selectors import emergency_active, robot_position
 from robots.services import robot_lock, robot_publish
 from scheduling.choices import ROUTE_STATUSES, Cause, OperatorActionKind
 from scheduling.models import Task
 from scheduling.services.allocation import allocation_lock_take, site_allocate_due
 from scheduling.services.history import task_record
 from scheduling.services.operator import ACTION_KEY
+from scheduling.services.plans import plan_refuge_post, robot_replan
 
 REASON_MAX = 200
 HELD_NOTE = "Held: fire alarm. The robot waits where it is until the all-clear."
+REFUGE_NOTE = "Held: fire alarm. The robot waits at refuge point {refuge} until the all-clear."
 RESUMED_NOTE = "Fire alarm over: on its way again."
 
 
@@ -99,10 +114,11 @@ def emergency_start(
             )
     except IntegrityError:  # an open row without the flag: the same alarm, started meanwhile
         raise EmergencyRefused(f"A fire alarm is already in force at {site}.") from None
-    emergency.stopped_robots = [
-        robot.code for robot in _robots_to_stop(site, emergency) if _stop(robot, by, now)
-    ]
-    emergency.save(update_fields=["stopped_robots"])
+    for robot in _robots_to_stop(site, emergency):
+        _stop(emergency, robot_lock(robot.pk), by, now)
+    emergency.save(update_fields=["stopped_robots", "refuges"])
+    for resource in Resource.objects.filter(site=site, kind=ResourceKind.ELEVATOR).order_by("pk"):
+        lease_grants_take_back(resource=resource_lock(resource.pk))
     _audit(emergency, "fire_alarm", by=by, via=via)
     alert_raise(
         site_id=site.pk,
@@ -129,6 +145,8 @@ def emergency_end(*, site: Site, via: str, by=None, now: datetime | None = None)
     emergency.ended_at, emergency.ended_by, emergency.ended_via = now, by, via
     emergency.save(update_fields=["ended_at", "ended_by", "ended_via"])
     resumed = [code for code in emergency.stopped_robots if _resume(site, code, by, now)]
+    for code in emergency.refuges:
+        _from_refuge(site, code, by, now)
     _audit(emergency, "all_clear", by=by, via=via)
     alerts_close(key=_alert_key(site), by=by, at=now)
     allocated = site_allocate_due(site_id=site.pk, now=now)
@@ -137,24 +155,41 @@ def emergency_end(*, site: Site, via: str, by=None, now: datetime | None = None)
     return EmergencyEnded(emergency=emergency, resumed=resumed, allocated=allocated)
 
 
+def emergency_panel_apply(*, site: Site, alarm: bool, floors: list[str], reason: str) -> bool:
+    """A fire panel's state (building.hooks.fire_panel_changed): start the alarm if none is
+    in force; end it only if the panel started it (an operator's drill outlives the panel's
+    retained "no alarm"). True if it started or ended one."""
+    active = emergency_active(site=site)
+    try:
+        if alarm and active is None:
+            emergency_start(site=site, floors=floors, reason=reason, via=EmergencySource.BUILDING)
+            return True
+        if not alarm and active is not None and active.started_via == EmergencySource.BUILDING:
+            emergency_end(site=site, via=EmergencySource.BUILDING)
+            return True
+    except EmergencyRefused:  # an operator or the API got there first: theirs stands
+        return False
+    return False
+
+
 def emergency_heartbeat_check(*, applied) -> bool:
-    """Stop a robot that, while a fire alarm is in force, reports itself on a floor it covers
-    and outside any resource, and is not stopped yet; True if told to pause. Robot row locked
-    (a heartbeat's receiver); no query unless an alarm is in force at its site."""
+    """Send to a refuge, or else stop, a robot that, while a fire alarm is in force, reports
+    itself on a floor it covers, outside any resource and its waiting points, and was not
+    dealt with yet; True if it was. Robot row locked (a heartbeat's receiver); no query unless
+    an alarm is in force at its site."""
     robot = applied.robot
     if robot.site.fire_alarm_since is None or not applied.state_applied:
         return False
     if robot.status in (RobotStatus.IN_RESOURCE, RobotStatus.PAUSED) or robot.paused_by_operator:
         return False
     emergency = Emergency.objects.active().select_for_update().filter(site=robot.site).first()
-    if emergency is None or robot.code in emergency.stopped_robots:
+    if emergency is None or robot.code in (*emergency.stopped_robots, *emergency.refuges):
         return False
     if not emergency.covers(floor_code_by_id(robot.site, robot.floor_id)):
         return False
-    emergency.stopped_robots = [*emergency.stopped_robots, robot.code]
-    emergency.save(update_fields=["stopped_robots"])
-    _action_post(robot, OperatorActionKind.PAUSE)
-    _tell_tasks(robot, HELD_NOTE, None, applied.now)
+    if not _stop(emergency, robot, None, applied.now, published=False):
+        return False
+    emergency.save(update_fields=["stopped_robots", "refuges"])
     return True
 
 
@@ -188,15 +223,59 @@ def _robots_to_stop(site: Site, emergency: Emergency) -> list[Robot]:
     ]
 
 
-def _stop(robot: Robot, by, now: datetime) -> bool:
-    """Tell the robot to pause, unless an operator already holds it; True if told."""
-    robot = robot_lock(robot.pk)
+def _stop(emergency: Emergency, robot: Robot, by, now: datetime, published=True) -> bool:
+    """Send the locked robot to its nearest refuge, or else tell it to pause, unless an
+    operator already holds it or it stands where robots wait for a lift, door or corridor
+    (it is stopped once out); True if told, and recorded on `emergency` (not saved)."""
     if robot.paused_by_operator:
         return False
-    _action_post(robot, OperatorActionKind.PAUSE)
-    _tell_tasks(robot, HELD_NOTE, by, now)
-    robot_publish(robot=robot)
+    refuge = _refuge_nearest(robot)
+    if refuge is not None:
+        emergency.refuges = {**emergency.refuges, robot.code: refuge}
+        emergency.save(update_fields=["refuges"])  # read by the plan it is posted now
+        plan_refuge_post(robot=robot, refuge=refuge, now=now)
+        _tell_tasks(robot, REFUGE_NOTE.format(refuge=refuge), by, now)
+    elif _in_a_lobby(robot):
+        return False
+    else:
+        emergency.stopped_robots = [*emergency.stopped_robots, robot.code]
+        _action_post(robot, OperatorActionKind.PAUSE)
+        _tell_tasks(robot, HELD_NOTE, by, now)
+    if published:
+        robot_publish(robot=robot)
     return True
+
+
+def _refuge_nearest(robot: Robot) -> str | None:
+    """The refuge point of the robot's floor it reaches soonest without a lift, if any."""
+    here = robot_position(robot)
+    current = site_map(robot.site)
+    floor = current.waypoints[here].floor
+    router = router_for(robot.site)
+    reachable = []
+    for code in current.codes_of_kind(WaypointKind.REFUGE):
+        if current.waypoints[code].floor != floor:
+            continue
+        leg = router.leg(here, code)
+        if leg.path and not leg.rides:
+            reachable.append((leg.seconds, code))
+    return min(reachable)[1] if reachable else None
+
+
+def _in_a_lobby(robot: Robot) -> bool:
+    here = site_map(robot.site).waypoints[robot_position(robot)]
+    return here.kind == WaypointKind.RESOURCE_WAIT
+
+
+def _from_refuge(site: Site, code: str, by, now: datetime) -> None:
+    """Post a robot the alarm sent to a refuge its plan without the refuge."""
+    found = Robot.objects.filter(site=site, code=code).values_list("pk", flat=True).first()
+    if found is None:
+        return
+    robot = robot_lock(found)
+    robot_replan(robot=robot, now=now)
+    _tell_tasks(robot, RESUMED_NOTE, by, now)
+    robot_publish(robot=robot)
 
 
 def _resume(site: Site, code: str, by, now: datetime) -> bool:

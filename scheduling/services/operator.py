@@ -26,7 +26,12 @@ from boards import protocol
 from boards.choices import MessageType
 from boards.services import board_post
 from core.said import Said
-from resources.availability import resource_return_to_service, resource_take_out_of_service
+from resources.availability import (
+    resource_priority_end,
+    resource_priority_start,
+    resource_return_to_service,
+    resource_take_out_of_service,
+)
 from robots.models import Resource, Robot
 from robots.services import robot_lock, robot_publish
 from scheduling.choices import ROUTE_STATUSES, Cause, OperatorActionKind, ResourceActionKind
@@ -101,6 +106,26 @@ def resource_operator_set_service(
     else:
         changed = resource_take_out_of_service(resource=resource, reason=reason, actor=by, now=now)
         action = ResourceActionKind.OUT_OF_SERVICE
+    if not changed:
+        return None
+    return operator_action_record(
+        resource=resource, action=action, by=by, at=now, note=reason[:200]
+    )
+
+
+@transaction.atomic
+def resource_operator_set_priority(
+    *, resource: Resource, on: bool, by, reason: str = "", now: datetime | None = None
+) -> OperatorAction | None:
+    """An operator (or a building management system) holds an elevator for an emergency team
+    (with a reason) or releases it; recorded. None if it already was so."""
+    now = now or timezone.now()
+    if on:
+        changed = resource_priority_start(resource=resource, reason=reason, actor=by, now=now)
+        action = ResourceActionKind.LIFT_PRIORITY
+    else:
+        changed = resource_priority_end(resource=resource, actor=by, now=now)
+        action = ResourceActionKind.PRIORITY_END
     if not changed:
         return None
     return operator_action_record(

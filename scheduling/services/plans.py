@@ -13,7 +13,7 @@ from boards.choices import MessageType
 from boards.models import BoardMessage
 from boards.services import board_post, board_withdraw
 from robots.mapcache import router_for
-from robots.models import Robot
+from robots.models import Emergency, Robot
 from robots.router import Router
 from robots.selectors import robot_dock, robot_position, unit_badges
 from scheduling.allocator import Stop, best_plan
@@ -139,6 +139,19 @@ def plan_restore(*, robot: Robot, now: datetime) -> RobotPlan | None:
     return robot_replan(robot=robot, now=now)
 
 
+def plan_refuge_post(*, robot: Robot, refuge: str, now: datetime) -> RobotPlan:
+    """Send the robot to a refuge point for a fire alarm (scheduling.services.emergency): a
+    `dock` stop there first, then the task stops of its current plan, so the tasks it holds
+    stay its own while it waits. The refuge is recorded on the alarm first: every plan posted
+    for the robot until the all-clear starts with it (_post)."""
+    current = _current_plan(robot)
+    stops = current.body.get("stops", []) if current else []
+    tasks = current.body.get("tasks", {}) if current else {}
+    return _post(
+        robot, [s for s in stops if s.get("action") != "dock"], tasks, now, current=current
+    )
+
+
 def plan_withdraw_pending(*, robot: Robot, reason: str, now: datetime) -> int:
     """Take the robot's unacked plan off its board (protocol v1, withdrawing an assignment)."""
     pending = BoardMessage.objects.pending().filter(robot=robot, key=PLAN_KEY)
@@ -155,6 +168,9 @@ def _post(
     wake_at_once=True,
 ) -> RobotPlan:
     """Post the plan after `current`, the robot's last plan as _current_plan read it."""
+    refuge = _refuge_of(robot)
+    if refuge is not None:  # the robot waits out a fire alarm there (plan_refuge_post)
+        stops = _after_refuge(robot, refuge, stops)
     version = max(current.version if current else 0, robot.plan_version) + 1
     body = protocol.plan_body(version=version, stops=stops, tasks=tasks)
     message = board_post(
@@ -172,6 +188,27 @@ def _post(
     current.version, current.body, current.message, current.posted_at = version, body, message, now
     current.save(update_fields=["version", "body", "message", "posted_at"])
     return current
+
+
+def _after_refuge(robot: Robot, refuge: str, stops: list[dict]) -> list[dict]:
+    """A dock stop at the refuge (on the robot's floor: no `via`), then the task stops, the
+    first one's `via` from the refuge."""
+    rest = [dict(stop) for stop in stops if stop.get("action") != "dock"]
+    if rest:
+        rest[0].pop("via", None)
+        via = router_for(robot.site).leg(refuge, rest[0]["waypoint"]).via
+        if via:
+            rest[0]["via"] = via
+    return [protocol.plan_dock_stop(waypoint=refuge, via=[]), *rest]
+
+
+def _refuge_of(robot: Robot) -> str | None:
+    """The refuge point the fire alarm in force sent the robot to; no query without one."""
+    if robot.site.fire_alarm_since is None:
+        return None
+    active = Emergency.objects.active().filter(site_id=robot.site_id)
+    refuges = active.values_list("refuges", flat=True).first() or {}
+    return refuges.get(robot.code)
 
 
 def _current_plan(robot: Robot) -> RobotPlan | None:

@@ -328,6 +328,8 @@
       element("rect", { x: "-1.1", y: "-1.1", width: "2.2", height: "2.2", class: "wp-dock" }, group);
     } else if (wp.kind === "resource_wait") {
       element("path", { d: "M0 -1.4 L1.4 0 L0 1.4 L-1.4 0 Z", class: "wp-resource_wait" }, group);
+    } else if (wp.kind === "refuge") {
+      element("path", { d: "M0 -1.4 L1.3 1.1 L-1.3 1.1 Z", class: "wp-refuge" }, group);
     } else {
       element("circle", { r: "0.7", class: "wp-plain" }, group);
     }

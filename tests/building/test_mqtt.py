@@ -7,52 +7,17 @@ Each run uses a topic prefix of its own, so parallel runs on the shared broker n
 import json
 import queue
 import time
-import uuid
 
-import paho.mqtt.client as mqtt
-import pytest
 from django.test import override_settings
 
 from boards.choices import MessageType
 from boards.models import BoardMessage
-from building.bridge import MqttBridge
 from building.models import Device
 from robots.models import Floor, Resource
 from tests import factories
 from tests.factories import lease_acquire, lease_enter
 
-HOST, PORT = "127.0.0.1", 1883
 DEADLINE = 10.0  # seconds to wait for the broker; polled, never slept
-
-
-@pytest.fixture
-def prefix():
-    return f"hdtest-{uuid.uuid4().hex[:10]}/building"
-
-
-@pytest.fixture
-def controller(prefix):
-    """A building's controller: hears the server's requests, publishes states."""
-    heard: queue.Queue = queue.Queue()
-    client = mqtt.Client(mqtt.CallbackAPIVersion.VERSION2, client_id=f"ctl-{uuid.uuid4().hex}")
-    client.on_message = lambda c, u, message: heard.put((message.topic, message.payload))
-    client.connect(HOST, PORT)
-    client.loop_start()
-    subscribed = client.subscribe(f"{prefix}/#", qos=1)
-    assert subscribed[0] == mqtt.MQTT_ERR_SUCCESS
-    client.heard = heard
-    yield client
-    for kind in ("lift_requests/ELEV", "door_requests/DOOR-2F"):  # no retained leftovers
-        client.publish(f"{prefix}/tiny/{kind}", b"", qos=1, retain=True).wait_for_publish(5)
-    client.loop_stop()
-    client.disconnect()
-
-
-@pytest.fixture
-def bridge(prefix, controller):
-    bridge = MqttBridge(host=HOST, port=PORT, prefix=prefix, client_id=f"hd-{uuid.uuid4().hex}")
-    yield bridge
-    bridge.close()
 
 
 def next_request(controller, topic: str) -> dict:
@@ -67,11 +32,12 @@ def next_request(controller, topic: str) -> dict:
     raise AssertionError(f"nothing on {topic} within {DEADLINE} s")
 
 
-def publish_state(controller, bridge, topic: str, payload, expect: str) -> None:
-    """Publish a state and run the bridge until it has applied or refused it: `expect`."""
+def publish_state(controller, bridge, topic: str, payload, expect: str, retain=False) -> None:
+    """Publish a state and run the bridge until it has applied or refused it: `expect`.
+    Retained, it reaches a bridge still subscribing too."""
     raw = payload if isinstance(payload, bytes) else json.dumps(payload).encode()
     before = (bridge.counts.applied, bridge.counts.invalid)
-    controller.publish(topic, raw, qos=1).wait_for_publish(5)
+    controller.publish(topic, raw, qos=1, retain=retain).wait_for_publish(5)
     deadline = time.monotonic() + DEADLINE
     while (bridge.counts.applied, bridge.counts.invalid) == before:
         assert time.monotonic() < deadline, f"the bridge never read {topic}"

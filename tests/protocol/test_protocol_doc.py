@@ -88,6 +88,7 @@ TAGS = {
 HEARTBEAT_TAGS = {"heartbeat-request", "bad-heartbeat-request"}
 REPLAYED_ROBOT = "R3"
 DOCK = "dock"
+REFUGE = "refuge"
 
 
 # --- Reading the document -----------------------------------------------------------------------
@@ -560,12 +561,14 @@ def test_it_validates_every_message_with_the_servers_documentation_serializers(e
 
 
 def dock_stops_checked(where, plan, eulji_map) -> None:
-    """A dock stop has no task and no stop, and is at a dock; a task stop has both."""
+    """A dock stop has no task and no stop, and is at a dock, or at a refuge point and first
+    (a fire alarm's); a task stop has both."""
     for n, stop in enumerate(plan["stops"]):
         if stop["action"] == DOCK:
             assert {"action", "waypoint"} <= set(stop) <= {"action", "waypoint", "via", "charge"}
             assert stop.get("charge", True) is True, f"{where}: stops[{n}].charge"
-            assert eulji_map.waypoints[stop["waypoint"]].kind == DOCK, f"{where}: stops[{n}]"
+            kind = eulji_map.waypoints[stop["waypoint"]].kind
+            assert kind == DOCK or (kind == REFUGE and n == 0), f"{where}: stops[{n}]"
         else:
             assert {"task", "stop"} <= set(stop), f"{where}: stops[{n}]"
 

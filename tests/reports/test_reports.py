@@ -239,6 +239,7 @@ def test_the_page_shows_every_table_and_its_csv_has_the_same_rows(operator, site
         "utilisation",
         "resource_waits",
         "failures",
+        "stuck",
     ):
         assert f'id="chart-{key}"' in html
         assert f'id="data-{key}"' in html
@@ -308,3 +309,25 @@ def test_the_default_period_is_the_last_30_days(operator, site):
     days = [row["day"] for row in csv.DictReader(io.StringIO(response.content.decode()))]
     assert days[0] == (today - timedelta(days=29)).isoformat()
     assert days[-1] == today.isoformat()
+
+
+def test_it_counts_each_robot_getting_stuck_live_and_from_the_roll_ups(site):
+    r1, r2 = (factories.robot_create(site, code) for code in ("R1", "R2"))
+    raised = [
+        ("robot_stuck", r1, datetime(2026, 11, 3, 9, tzinfo=ZONE)),
+        ("robot_stuck", r1, datetime(2026, 11, 4, 23, 59, tzinfo=ZONE)),
+        ("robot_stuck", r2, datetime(2026, 11, 4, 10, tzinfo=ZONE)),
+        ("robot_stuck", r2, datetime(2026, 11, 6, 0, 0, tzinfo=ZONE)),  # the day after
+        ("robot_error", r2, datetime(2026, 11, 4, 11, tzinfo=ZONE)),
+    ]
+    for n, (kind, robot, at) in enumerate(raised):
+        Alert.objects.create(
+            site=site, kind=kind, key=f"k{n}", message="", robot=robot, raised_at=at
+        )
+    period = Period(site=site, first=date(2026, 11, 3), last=date(2026, 11, 5))
+    expected = [{"robot": "R1", "stuck": 2}, {"robot": "R2", "stuck": 1}]
+
+    assert rows("stuck", period) == expected
+    rollup_sweep(now=NOW)
+    assert DailyRollup.objects.filter(site=site).exists()
+    assert rows("stuck", period) == expected

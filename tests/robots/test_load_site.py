@@ -205,7 +205,7 @@ RULES = {
     "unknown waypoint kind": (
         put("floors", 0, "waypoints", 1, "kind", value="hallway"),
         "floors[0].waypoints[1].kind: unknown kind 'hallway' "
-        "(expected one of plain, station, dock, resource_wait)",
+        "(expected one of plain, station, dock, resource_wait, refuge)",
     ),
     "edge to an unknown waypoint": (
         add("floors", 0, "edges", item=["1F-HALL", "1F-NOWHERE"]),
@@ -451,9 +451,9 @@ def test_it_loads_the_demo_site(db):
     assert (due, site.stop_dwell_seconds) == ((20, 45, 120), 30)
     assert site.floors.count() == 15
     assert set(site.floors.values_list("level", flat=True)) == set(range(1, 16))
-    assert site.waypoints.count() == 98
+    assert site.waypoints.count() == 102
     assert site.waypoints.filter(kind="station").count() == 29
-    assert site.edges.count() == 83
+    assert site.edges.count() == 87
     assert dict(site.resources.values_list("code", "kind")) == {
         "ELEV-A": "elevator",
         "DOOR-2F-LAB": "door",
@@ -505,7 +505,7 @@ def test_it_updates_an_edge_in_place(db):
 
     updated = Edge.objects.get(pk=edge.pk)
     assert (edge.length, updated.length) == (28.0, 35.5)
-    assert Edge.objects.filter(site=site).count() == 83
+    assert Edge.objects.filter(site=site).count() == 87
 
 
 def test_it_deletes_what_the_file_no_longer_has(db):
@@ -532,7 +532,7 @@ def test_it_deletes_what_the_file_no_longer_has(db):
         .exists()
     )
     assert Waypoint.objects.get(code="2F-LAB-DROP").pk == kept
-    assert Waypoint.objects.count() == 97
+    assert Waypoint.objects.count() == 101
 
 
 def test_it_keeps_robot_tokens_and_reported_state(db):
@@ -610,10 +610,10 @@ def test_it_loads_through_the_command(db):
     call_command("load_site", str(EULJI), stdout=out)
 
     assert out.getvalue().splitlines() == [
-        "Created site 'eulji' (map version 1): 15 floors, 98 waypoints (29 stations, 4 docks),"
-        " 83 edges, 3 resources, 4 robots",
-        "Updated site 'eulji' (map version 2): 15 floors, 98 waypoints (29 stations, 4 docks),"
-        " 83 edges, 3 resources, 4 robots",
+        "Created site 'eulji' (map version 1): 15 floors, 102 waypoints (29 stations, 4 docks),"
+        " 87 edges, 3 resources, 4 robots",
+        "Updated site 'eulji' (map version 2): 15 floors, 102 waypoints (29 stations, 4 docks),"
+        " 87 edges, 3 resources, 4 robots",
     ]
 
 

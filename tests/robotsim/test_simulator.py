@@ -29,9 +29,9 @@ BEHAVIOUR = Behaviour(staff_delay=(5.0, 10.0))
 
 
 class World:
-    def __init__(self, site):
+    def __init__(self, site, data=factories.TINY_SITE):
         self.clock = ManualClock()
-        self.site_map = site_map_from_file(factories.TINY_SITE)
+        self.site_map = site_map_from_file(data)
         self.loops: list[RobotLoop] = []
         self.site = site
 
@@ -255,3 +255,28 @@ def test_a_robot_draining_as_its_site_says_is_sent_to_charge_and_back_to_work(wo
     world.run_until(lambda: not Robot.objects.get(code="R1").sent_to_charge, limit=3000)
     assert robot.battery >= 0.8
     assert robot.idle_at_dock
+
+
+def test_a_fire_alarm_sends_it_to_a_refuge_and_after_the_all_clear_it_delivers_once(api, operator):
+    from scheduling.services import emergency_end, emergency_start
+
+    data = factories.tiny_site_with_refuge()
+    site = factories.site_create(**data)
+    world = World(site, data)
+    robot = world.robot("R1", "1F-DOCK-1")
+    world.run_until(lambda: robot.client.seq > 1)
+    code = order(api, ["1F-PHARM"], ["2F-LAB"])
+    world.run_until(lambda: robot.stops, limit=10)
+
+    emergency_start(site=site, floors=["1F"], reason="drill", via="operator", by=operator)
+    world.run_until(lambda: robot.waypoint == "1F-REFUGE", limit=120)
+    with pytest.raises(AssertionError):  # it waits there, its delivery with it
+        world.run_until(lambda: robot.waypoint != "1F-REFUGE", limit=120)
+    assert Task.objects.get().status != "completed"
+
+    emergency_end(site=site, via="operator", by=operator)
+    world.run_until(completed(code))
+    task = Task.objects.get()
+    assert task.code == code
+    notes = list(task.history.values_list("note", flat=True))
+    assert any("waits at refuge point 1F-REFUGE" in note for note in notes)

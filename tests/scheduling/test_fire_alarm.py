@@ -155,4 +155,6 @@ def test_a_robot_reaching_another_floor_is_stopped_only_on_a_covered_one(site, o
     beater.beat(status="moving", waypoint="3F-ELEV-WAIT")
     assert actions(robot) == []
     beater.beat(status="moving", waypoint="2F-ELEV-WAIT")
+    assert actions(robot) == []  # not in the lift lobby: once out of it
+    beater.beat(status="moving", waypoint="2F-LAB")
     assert actions(robot) == ["pause"]

@@ -55,6 +55,7 @@ def test_a_building_system_starts_and_ends_it(api, site, building):
         "started_by": "bms",
         "started_via": "api",
         "stopped_robots": ["R1"],
+        "refuges": {},
     }
     assert api.get(URL).json()["active"] is True
     again = post(api, body={})

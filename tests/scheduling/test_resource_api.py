@@ -36,6 +36,8 @@ def test_it_takes_a_resource_out_of_service_and_returns_it(api, site, staff):
         "in_service": False,
         "out_of_service_since": None,
         "out_of_service_reason": "annual inspection",
+        "priority_since": None,
+        "priority_reason": "",
     }
     assert taken.json()["out_of_service_since"]
     listed = {each["code"]: each["in_service"] for each in api.get(URL).json()}
