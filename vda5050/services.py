@@ -7,12 +7,14 @@ from dataclasses import dataclass
 
 from django.conf import settings
 from django.db import transaction
+from django.utils.translation import gettext_noop
 from rest_framework.exceptions import ValidationError
 
 from boards.protocol import message_wire
 from boards.serializers import heartbeat_validate
 from boards.services import HeartbeatRejected, heartbeat_apply
 from core.errors import flatten_errors
+from core.said import Said
 from robots.alerts import alert_raise, alerts_close
 from robots.choices import RobotProtocol
 from robots.mapcache import router_for, site_map
@@ -118,9 +120,15 @@ def vehicle_held_alert(*, robot_id: int, lift: str, floor: str, seconds: float) 
         site_id=robot.site_id,
         kind=AlertKind.LIFT_CAR_MISSING,
         key=_held_key(robot.code, lift, floor),
-        message=(
-            f"{robot.code} has waited {seconds:.0f} s at {lift} on floor {floor} for a car that "
-            "has not come; it stays there until the car reports that floor with its doors open"
+        message=Said(
+            gettext_noop(
+                "%(robot)s has waited %(seconds)s s at %(lift)s on floor %(floor)s for a car that "
+                "has not come; it stays there until the car reports that floor with its doors open"
+            ),
+            robot=robot.code,
+            seconds=f"{seconds:.0f}",
+            lift=lift,
+            floor=floor,
         ),
         robot=robot,
     )

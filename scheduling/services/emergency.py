@@ -35,12 +35,14 @@ from datetime import datetime
 
 from django.db import IntegrityError, transaction
 from django.utils import timezone
+from django.utils.translation import gettext_noop
 
 from audit.choices import Kind
 from audit.services import entry_record
 from boards import protocol
 from boards.choices import MessageType
 from boards.services import board_post
+from core.said import Said
 from resources.leases import lease_grants_take_back, resource_lock, resource_serve
 from robots.alerts import alert_raise, alerts_close
 from robots.choices import (
@@ -315,11 +317,19 @@ def _alert_key(site: Site) -> str:
     return f"fire-alarm:{site.pk}"
 
 
-def _alert_message(emergency: Emergency, by) -> str:
-    where = "floors " + ", ".join(emergency.floors) if emergency.floors else "every floor"
-    who = f" by {by.get_username()}" if by is not None else ""
-    reason = f" ({emergency.reason})" if emergency.reason else ""
-    return (
-        f"Fire alarm on {where}, started{who}{reason}. Robots there have stopped where they "
-        "are; no robot is given a lift; new deliveries are accepted and wait for the all-clear."
+def _alert_message(emergency: Emergency, by) -> Said:
+    if emergency.floors:
+        where = Said(gettext_noop("floors %(floors)s"), floors=", ".join(emergency.floors))
+    else:
+        where = Said(gettext_noop("every floor"))
+    who = Said(gettext_noop(" by %(user)s"), user=by.get_username()) if by is not None else ""
+    return Said(
+        gettext_noop(
+            "Fire alarm on %(where)s, started%(who)s%(reason)s. Robots there have stopped where "
+            "they are; no robot is given a lift; new deliveries are accepted and wait for the "
+            "all-clear."
+        ),
+        where=where,
+        who=who,
+        reason=f" ({emergency.reason})" if emergency.reason else "",
     )

@@ -12,8 +12,10 @@ from datetime import datetime, timedelta
 
 from django.db import transaction
 from django.utils import timezone
+from django.utils.translation import gettext_noop
 
 from core import changes
+from core.said import Said
 from resources.choices import LeaseState
 from resources.models import Lease
 from robots.alerts import alert_raise
@@ -80,7 +82,11 @@ def _later(robot: Robot, tasks: list[Task], lost: timedelta, where: str, now: da
     etas_write(tasks)
     if tasks:
         changes.changed(kind=changes.ETAS, site_id=robot.site_id, subject=tasks)
-    note = f"{robot.code} is stuck at {where}: this delivery will be late"
+    note = Said(
+        gettext_noop("%(robot)s is stuck at %(where)s: this delivery will be late"),
+        robot=robot.code,
+        where=where,
+    )
     for task in tasks:
         task_record(task, old=task.status, at=now, cause=Cause.SWEEP, robot=robot, note=note)
 
@@ -97,10 +103,20 @@ def _where(robot: Robot) -> str:
     return f"{floor}{place}{xy}"
 
 
-def _message(robot: Robot, where: str, lost: timedelta, tasks: list[Task]) -> str:
-    minutes = int(lost.total_seconds() // 60)
-    carrying = f"; its deliveries: {', '.join(t.code for t in tasks)}" if tasks else ""
-    return (
-        f"{robot.code} reports moving but has not got anywhere for {minutes} min, at {where}, "
-        f"with {robot.load} item(s) on board{carrying}."
+def _message(robot: Robot, where: str, lost: timedelta, tasks: list[Task]) -> Said:
+    carrying = (
+        Said(gettext_noop("; its deliveries: %(codes)s"), codes=", ".join(t.code for t in tasks))
+        if tasks
+        else ""
+    )
+    return Said(
+        gettext_noop(
+            "%(robot)s reports moving but has not got anywhere for %(minutes)s min, at "
+            "%(where)s, with %(load)s item(s) on board%(carrying)s."
+        ),
+        robot=robot.code,
+        minutes=int(lost.total_seconds() // 60),
+        where=where,
+        load=robot.load,
+        carrying=carrying,
     )
