@@ -101,15 +101,20 @@ def resource_priority_start(
     resource.save(update_fields=["priority_since", "priority_reason"])
     lease_grants_take_back(resource=resource)
     _changed(resource, now=now)
-    who = f" by {actor.get_username()}" if actor is not None else ""
+    who = Said(gettext_noop(" by %(user)s"), user=actor.get_username()) if actor else ""
     alert_raise(
         site_id=resource.site_id,
         kind=AlertKind.LIFT_PRIORITY,
         key=_priority_key(resource),
-        message=(
-            f"{resource.code} is held for an emergency team{who}: {resource.priority_reason}. "
-            "The robot inside finishes its ride; no robot is granted it until it is released; "
-            "robots go another way where there is one, the others wait."
+        message=Said(
+            gettext_noop(
+                "%(code)s is held for an emergency team%(who)s: %(reason)s. The robot inside "
+                "finishes its ride; no robot is granted it until it is released; robots go "
+                "another way where there is one, the others wait."
+            ),
+            code=resource.code,
+            who=who,
+            reason=resource.priority_reason,
         ),
         resource=resource,
     )

@@ -23,7 +23,9 @@ from datetime import datetime
 
 from django.db import transaction
 from django.utils import timezone
+from django.utils.translation import gettext_noop
 
+from core.said import Said
 from resources.choices import HOLDING_LEASE_STATES, LIVE_LEASE_STATES, LeaseEndCause, LeaseState
 from resources.leases import lease_board_sync, resource_lock, resource_serve
 from resources.models import Lease
@@ -144,23 +146,32 @@ def _yield(lease: Lease, now: datetime) -> Lease:
 
 def _alert(cycle: list[Hold], current: dict[int, Lease], yielded: Lease | None) -> None:
     leases = [current[hold.lease] for hold in cycle]
-    who = ", ".join(f"{lease.robot.code} holds {lease.resource.code}" for lease in leases)
+    who = ", ".join(f"{lease.robot.code} → {lease.resource.code}" for lease in leases)
     if yielded is not None:
-        outcome = (
-            f"{yielded.robot.code} gave up its unused grant of {yielded.resource.code} and "
-            "waits again, last in line."
+        outcome = Said(
+            gettext_noop(
+                "%(robot)s gave up its unused grant of %(resource)s and waits again, last in line."
+            ),
+            robot=yielded.robot.code,
+            resource=yielded.resource.code,
         )
     else:
-        outcome = (
-            "Every one of them is inside: move one out and force-release its lease on the "
-            "fleet page."
+        outcome = Said(
+            gettext_noop(
+                "Every one of them is inside: move one out and force-release its lease on the "
+                "fleet page."
+            )
         )
     first = leases[0]
     alert_raise(
         site_id=first.resource.site_id,
         kind=AlertKind.LEASE_DEADLOCK,
         key="lease-deadlock:" + ",".join(str(h.lease) for h in sorted(cycle, key=_lease_of)),
-        message=f"Robots waiting for each other's resources ({who}). {outcome}",
+        message=Said(
+            gettext_noop("Robots waiting for each other's resources (%(who)s). %(outcome)s"),
+            who=who,
+            outcome=outcome,
+        ),
         robot=first.robot,
     )
 

@@ -28,6 +28,7 @@ from statistics import fmean
 
 from django.db import transaction
 from django.utils import timezone
+from django.utils.translation import gettext_noop
 
 from audit.choices import Kind
 from audit.services import entry_record
@@ -36,6 +37,7 @@ from boards.choices import RESOURCE_EVENT_TYPES, EventType, MessageType, Request
 from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.services import AppliedHeartbeat, HeartbeatRejected, board_post, board_withdraw
 from core import changes
+from core.said import Said
 from resources.choices import LeaseEndCause, LeaseState
 from resources.hooks import lease_changed
 from resources.metrics import lease_wait_observe
@@ -304,10 +306,16 @@ def lease_hard_limit_alert(*, lease: Lease, now: datetime) -> bool:
         site_id=resource.site_id,
         kind=AlertKind.LEASE_HARD_LIMIT,
         key=_hard_limit_key(lease),
-        message=(
-            f"{robot.code} has been silent inside {resource.code} since "
-            f"{timezone.localtime(since):%H:%M:%S} and keeps lease {lease.public_id}: nobody "
-            "else is let in. Find the robot; if it has left, force-release the lease."
+        message=Said(
+            gettext_noop(
+                "%(robot)s has been silent inside %(resource)s since %(since)s and keeps lease "
+                "%(lease)s: nobody else is let in. Find the robot; if it has left, force-release "
+                "the lease."
+            ),
+            robot=robot.code,
+            resource=resource.code,
+            since=f"{timezone.localtime(since):%H:%M:%S}",
+            lease=str(lease.public_id),
         ),
         robot=robot,
         resource=resource,
@@ -408,9 +416,15 @@ def _alert_entered_without_grant(lease, *, robot: Robot, resource: Resource, liv
         site_id=resource.site_id,
         kind=AlertKind.ENTERED_WITHOUT_GRANT,
         key=f"entered-without-grant:{lease.pk}",
-        message=(
-            f"{robot.code} entered {resource.code} without a grant ({holders} inside, capacity "
-            f"{resource.capacity}). It counts as a holder until it reports leaving."
+        message=Said(
+            gettext_noop(
+                "%(robot)s entered %(resource)s without a grant (%(holders)s inside, capacity "
+                "%(capacity)s). It counts as a holder until it reports leaving."
+            ),
+            robot=robot.code,
+            resource=resource.code,
+            holders=holders,
+            capacity=resource.capacity,
         ),
         robot=robot,
         resource=resource,
