@@ -2,9 +2,10 @@
 
 from datetime import datetime, timedelta
 
-from django.utils import timezone
-from django.utils.translation import gettext
+from django.utils import timezone, translation
+from django.utils.translation import gettext_noop
 
+from core.said import Said
 from robots.models import Site
 from scheduling.choices import PRIORITY_ALIASES, Priority
 
@@ -32,9 +33,23 @@ def late_by(*, eta: datetime | None, due_at: datetime | None) -> timedelta | Non
 
 def lateness_note(*, eta: datetime | None, due_at: datetime | None) -> str:
     """ "earliest drop-off 14:32, 7 min after it is due", or "" if on time (site local time)."""
+    said = lateness_said(eta=eta, due_at=due_at)
+    return str(said) if said else ""
+
+
+def lateness_said(*, eta: datetime | None, due_at: datetime | None) -> Said | None:
+    """The lateness note as words for any reader's language; None if on time."""
     late = late_by(eta=eta, due_at=due_at)
     if late is None:
-        return ""
-    minutes = max(1, round(late.total_seconds() / 60))
-    said = gettext("earliest drop-off %(time)s, %(minutes)d min after it is due")
-    return said % {"time": f"{timezone.localtime(eta):%H:%M}", "minutes": minutes}
+        return None
+    return Said(
+        gettext_noop("earliest drop-off %(time)s, %(minutes)s min after it is due"),
+        time=f"{timezone.localtime(eta):%H:%M}",
+        minutes=max(1, round(late.total_seconds() / 60)),
+    )
+
+
+def priority_said(priority: str) -> Said:
+    """A priority's name (its label's English is the catalog's msgid) for any language."""
+    with translation.override("en"):
+        return Said(str(Priority(priority).label))

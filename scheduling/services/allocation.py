@@ -24,6 +24,7 @@ from django.utils import timezone
 from django.utils.translation import gettext_noop
 
 from core import memo
+from core.said import Said
 from robots.mapcache import router_for
 from robots.models import Robot, Site
 from robots.selectors import robots_for_allocation
@@ -37,6 +38,7 @@ from scheduling.allocator import (
     best_plan,
 )
 from scheduling.choices import PRIORITY_RANK, Cause, Priority, TaskStatus
+from scheduling.deadlines import priority_said
 from scheduling.metrics import ALLOCATION_SECONDS
 from scheduling.models import AllocationLock, Task, TaskStop
 from scheduling.selectors import HeldRoute, robot_route, robot_routes, task_stops
@@ -508,6 +510,16 @@ def _wait(task: Task, reason: str) -> None:
     Task.objects.filter(pk=task.pk).update(waiting_reason=reason)
     task.waiting_reason = reason
     if task.priority != Priority.ROUTINE:
-        due = f", due {timezone.localtime(task.due_at):%H:%M}" if task.due_at else ""
-        message = f"{task.get_priority_display()} {task.code} has no robot{due}: {reason}"
+        due = (
+            Said(gettext_noop(", due %(time)s"), time=f"{timezone.localtime(task.due_at):%H:%M}")
+            if task.due_at
+            else ""
+        )
+        message = Said(
+            gettext_noop("%(priority)s %(code)s has no robot%(due)s: %(reason)s"),
+            priority=priority_said(task.priority),
+            code=task.code,
+            due=due,
+            reason=Said(reason),
+        )
         deadline_alert(task, message)

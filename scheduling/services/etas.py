@@ -24,11 +24,13 @@ from dataclasses import dataclass
 from datetime import datetime, timedelta
 
 from django.db.models import Q
+from django.utils.translation import gettext_noop
 
 from boards.choices import EventType
 from boards.models import RobotEvent
 from boards.services import AppliedHeartbeat
 from core import changes
+from core.said import Said
 from resources.choices import HOLDING_LEASE_STATES
 from resources.leases import resource_wait_estimate
 from resources.models import Lease, Resource
@@ -38,7 +40,7 @@ from robots.models import AlertKind, Robot
 from robots.router import Router
 from robots.selectors import waypoint_code
 from scheduling.allocator import PICKUP, Stop
-from scheduling.deadlines import lateness_note
+from scheduling.deadlines import lateness_said, priority_said
 from scheduling.models import RobotPlan, Task, TaskStop
 from scheduling.models.tasks import task_code, task_pk
 from scheduling.selectors import robot_pace, robot_route
@@ -86,14 +88,20 @@ def stop_times(
 
 def task_deadline_check(*, task: Task, robot: Robot | None = None) -> bool:
     """Alert operators if the task's ETA is after its due-by time; True if it is."""
-    note = lateness_note(eta=task.eta, due_at=task.due_at)
-    if note:
-        who = f" ({robot.code})" if robot else ""
-        deadline_alert(task, f"{task.get_priority_display()} {task.code}{who}: {note}", robot)
-    return bool(note)
+    late = lateness_said(eta=task.eta, due_at=task.due_at)
+    if late:
+        message = Said(
+            gettext_noop("%(priority)s %(code)s%(who)s: %(lateness)s"),
+            priority=priority_said(task.priority),
+            code=task.code,
+            who=f" ({robot.code})" if robot else "",
+            lateness=late,
+        )
+        deadline_alert(task, message, robot)
+    return late is not None
 
 
-def deadline_alert(task: Task, message: str, robot: Robot | None = None) -> None:
+def deadline_alert(task: Task, message: str | Said, robot: Robot | None = None) -> None:
     """One open alert per task whose deadline is at risk (raising it again changes nothing)."""
     alert_raise(
         site_id=task.site_id,
