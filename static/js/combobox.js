@@ -40,10 +40,7 @@
     listbox.className = "combobox-list";
     listbox.setAttribute("role", "listbox");
     listbox.dataset.comboboxList = "";
-    const label = input.labels && input.labels[0];
-    if (label) {
-      listbox.setAttribute("aria-label", label.textContent.trim());
-    }
+    listbox.setAttribute("aria-label", "Stations");
     listbox.hidden = true;
     input.after(listbox);
     input.setAttribute("role", "combobox");

@@ -26,7 +26,8 @@ def test_a_nurse_finds_and_picks_stations_by_keyboard_only(open_page, nurse):
     page.keyboard.type("Blood samples")
     pickup.focus()
     page.keyboard.type("ARMA")  # inside the name, any case
-    suggestions = page.get_by_role("listbox", name="Pick-up")
+    suggestions = page.locator(f"#{pickup.get_attribute('aria-controls')}")
+    expect(suggestions).to_have_attribute("role", "listbox")
     expect(pickup).to_have_attribute("aria-expanded", "true")
     expect(suggestions.get_by_role("option")).to_have_text([re.compile(r"^Pharmacy 1F · 1F-PHARM")])
     page.keyboard.press("ArrowDown")

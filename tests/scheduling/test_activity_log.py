@@ -6,7 +6,9 @@ import logging
 import pytest
 
 from robots.alerts import alert_raise
+from robots.models import Robot
 from robots.models.alerts import AlertKind
+from scheduling.services import task_allocate
 from tests.scheduling.conftest import request, robot_ready
 
 
@@ -24,9 +26,11 @@ def lines(caplog) -> list[str]:
 def test_it_logs_each_status_change_once_committed(
     activity, robot, site, django_capture_on_commit_callbacks
 ):
+    Robot.objects.filter(pk=robot.pk).update(compartments=[{"code": "A", "lockable": True}])
     robot_ready(robot)
     with django_capture_on_commit_callbacks(execute=True):
-        task = request(site, secure=True, allocate_now=True)
+        task = request(site, secure=True)
+        task_allocate(task_id=task.pk)
         assert lines(activity) == []  # nothing before the commit
 
     assert lines(activity) == [

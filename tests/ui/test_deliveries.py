@@ -61,7 +61,9 @@ def test_it_labels_every_field_as_the_paper_does(nurse_client, site):
         assert f'<label for="{field_id}">{label}</label>' in html
         assert f'id="{field_id}"' in html
     assert '<button type="submit" class="button-primary">Request delivery</button>' in html
-    assert '<option value="Laboratory" label="2F-LAB">' in html  # stations by their names
+    # stations by their names, for the search (static/js/combobox.js)
+    assert '"code": "2F-LAB", "name": "Laboratory", "ward": "2F"' in html
+    assert 'data-combobox="station-options"' in html
 
 
 def test_it_requests_a_delivery_like_the_api_does(nurse_client, nurse, site):
