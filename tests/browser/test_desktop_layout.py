@@ -28,7 +28,6 @@ def overlapping(boxes: list[dict]) -> list[tuple]:
 def test_the_fleet_page_fits_a_1366_px_screen(open_page, page_servers, operator, robot, site):
     RobotHttp(page_servers.http, robot).heartbeat(1)
     page = open_page(operator, f"/fleet/?site={site.code}", viewport=LAPTOP)
-    page.screenshot(path="/tmp/fleet1366.png", full_page=True)  # DIAGNOSIS, remove
 
     assert not page.evaluate(WIDER_THAN_THE_SCREEN)
     links = page.get_by_role("navigation", name="Main").get_by_role("link").all()
