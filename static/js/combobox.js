@@ -81,7 +81,9 @@
 
   function open(input) {
     const box = render(input);
-    const any = box.options.length > 0;
+    // Nothing left to choose once the box holds a station's whole name and only it matches.
+    const chosen = box.options.length === 1 && fold(box.options[0].dataset.value) === fold(input.value.trim());
+    const any = box.options.length > 0 && !chosen;
     box.listbox.hidden = !any;
     input.setAttribute("aria-expanded", String(any));
     return box;
