@@ -3,7 +3,7 @@
  * suggestions (WAI-ARIA 1.2 combobox pattern, list autocomplete), from the JSON data block ID
  * ([{code, name, ward}], Django's json_script). A suggestion matches when each typed word is in
  * its name, code or ward, anywhere. Keyboard: Down/Up move through the list (Down opens it),
- * Enter takes the highlighted one, Escape closes the list (or clears the box when closed), Tab
+ * Enter takes the highlighted one, Escape closes the list (keeping what was typed), Tab
  * leaves. Inputs added later (another stop) work too: the events are delegated.
  */
 (function () {
@@ -150,14 +150,9 @@
       event.preventDefault(); // take the suggestion, do not send the form yet
       const box = boxes.get(input);
       choose(input, box.options[box.active]);
-    } else if (event.key === "Escape") {
-      if (isOpen(input)) {
-        event.preventDefault();
-        close(input);
-      } else if (input.value) {
-        event.preventDefault();
-        input.value = "";
-      }
+    } else if (event.key === "Escape" && isOpen(input)) {
+      event.preventDefault(); // closes the list; what was typed stays
+      close(input);
     } else if (event.key === "Tab") {
       close(input);
     }
