@@ -23,7 +23,7 @@ from building import receivers as building
 from building.hooks import fire_panel_changed
 from core import watchdog
 from core.changes import changed
-from hospital_delivery import privatefiles, sessions, signin
+from hospital_delivery import activity, privatefiles, sessions, signin
 from resources import receivers as resources
 from resources.hooks import availability_changed, lease_changed
 from robots.hooks import presence_changed, token_issued
@@ -51,8 +51,9 @@ def connect() -> None:
     token_issued.connect(push.robot_sockets_close, audit.on_token_issued)
     # Whatever changed that people can see goes to the site's live pages after commit.
     # Then, for other hospital systems, a task's status change becomes a webhook delivery
-    # stored in the same transaction (sent after commit, retried until answered).
-    changed.connect(publish.on_change, webhooks.on_change)
+    # stored in the same transaction (sent after commit, retried until answered). Last, a line
+    # in the activity log for a delivery's status change or an alert (after commit).
+    changed.connect(publish.on_change, webhooks.on_change, activity.on_change)
     # A new session counts as used just now (its idle time, hospital_delivery/sessions.py).
     user_logged_in.connect(sessions.on_logged_in, dispatch_uid="session-idle-login")
     # The person's own language, if they chose one, for the new session's pages.

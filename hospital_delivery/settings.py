@@ -582,17 +582,30 @@ CELERY_BEAT_SCHEDULE = {
     "audit-retention-sweep": _sweep("audit.tasks.retention_sweep", 30),
 }
 
-LOG_LEVEL = env_str("LOG_LEVEL", "INFO")
+# WARNING by default, for our loggers and the libraries' alike: the run command's terminal (and
+# a server's journal) shows what needs a person, not the heartbeats and sweeps behind it. The
+# `activity` logger (hospital_delivery/activity.py: deliveries' status changes, alerts) always
+# prints at INFO. Times are local times of the process, which Django sets to TIME_ZONE, so every
+# process of the run command (which exports TZ to the same zone) logs in the site's zone.
+LOG_LEVEL = env_str("LOG_LEVEL", "WARNING").upper()
 LOGGING = {
     "version": 1,
     "disable_existing_loggers": False,
-    "formatters": {"plain": {"format": "%(asctime)s %(levelname)s %(name)s: %(message)s"}},
+    "formatters": {
+        "plain": {
+            "format": "%(asctime)s %(levelname)s %(name)s: %(message)s",
+            "datefmt": "%Y-%m-%d %H:%M:%S%z",
+        }
+    },
     "handlers": {"console": {"class": "logging.StreamHandler", "formatter": "plain"}},
     "root": {"handlers": ["console"], "level": LOG_LEVEL},
-    # Celery's own line per task run and per beat tick: the sweeps run every second, so these
-    # would flood the log; each sweep logs what it changed instead.
     "loggers": {
-        name: {"level": "WARNING"}
-        for name in ("celery.app.trace", "celery.worker.strategy", "celery.beat")
+        # Celery's own line per task run and per beat tick: the sweeps run every second, so
+        # these would flood the log; each sweep logs what it changed instead.
+        **{
+            name: {"level": "WARNING"}
+            for name in ("celery.app.trace", "celery.worker.strategy", "celery.beat")
+        },
+        "activity": {"level": "DEBUG" if LOG_LEVEL == "DEBUG" else "INFO"},
     },
 }

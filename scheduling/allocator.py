@@ -76,13 +76,15 @@ class RobotRoute:
     pace: float = 1.0  # its travel times over travel_time's, for when tasks are done
     lockable: int = 0  # lockable compartments: secure items on board at once, at most
     secure_load: int = 0  # secure items on board now (counted in `load` too)
+    wear: int = 0  # tasks given so far: of equally good robots, the least worn wins (_rank)
 
     @cached_property
     def nameless(self) -> RobotRoute:
-        """The route without the robot's code: robots alike share it (_distinct, _held_plan).
-        Kept, with its hash, as a batch offers each of its tasks to the same routes again."""
+        """The route without the robot's code and wear: robots alike share it (_distinct,
+        _held_plan). Kept, with its hash, as a batch offers each of its tasks to the same routes
+        again."""
         values = {field.name: getattr(self, field.name) for field in fields(self)}
-        return _NamelessRoute(**{**values, "robot": ""})
+        return _NamelessRoute(**{**values, "robot": "", "wear": 0})
 
 
 class _NamelessRoute(RobotRoute):
@@ -131,19 +133,21 @@ def allocate(
     """The robot, and its new route, whose route grows least by taking `task`.
 
     With metric travel times (shortest paths obey the triangle inequality) lower bounds prune
-    the search; pass metric=False for times that may not. Ties go to the smallest robot code.
+    the search; pass metric=False for times that may not. Ties go to the robot given fewer
+    tasks, then to the smallest code (_rank).
     """
     travel, robots = _Travel(travel_time), _distinct(robots)
+    rank = {robot.robot: _rank(robot) for robot in robots}
     bounds = [_lower_bound(task, robot, travel) if metric else 0.0 for robot in robots]
     metric = metric and not travel.saw_infinity
     best = None
-    for i in sorted(range(len(robots)), key=lambda i: (bounds[i], robots[i].robot)):
+    for i in sorted(range(len(robots)), key=lambda i: (bounds[i], rank[robots[i].robot])):
         robot = robots[i]
         if metric and best and bounds[i] > best.added_cost + TOLERANCE:
             break
         margin = best.added_cost if best else math.inf
         offer = _offer(task, robot, travel, margin=margin, metric=metric)
-        if offer and _is_better(offer, best):
+        if offer and _is_better(offer, best, rank):
             best = offer
     return best
 
@@ -176,7 +180,7 @@ def allocate_for_delivery_time(
     whose route is on time and least-travel is skipped when even the new task's own waiting
     (from reaching its farthest stop, `_earliest_done`) is more than the best offer's second
     part while that one is on time: such a robot can add no lateness, and no negative travel
-    or delay. Ties go to the smallest robot code.
+    or delay. Ties go to the robot given fewer tasks, then to the smallest code (_rank).
     """
     return _by_delivery_time(task, robots, travel_time, waiting_weight, prune=True)
 
@@ -185,8 +189,9 @@ def _by_delivery_time(task, robots, travel_time, waiting_weight: float, *, prune
     travel = _Travel(travel_time)
     best = None  # ((weighted lateness, travel + waiting), Allocation)
     robots = _distinct(robots)
+    rank = {robot.robot: _rank(robot) for robot in robots}
     nearest = {robot.robot: _earliest_done(task, robot, travel) for robot in robots}
-    for robot in sorted(robots, key=lambda robot: (nearest[robot.robot], robot.robot)):
+    for robot in sorted(robots, key=lambda robot: (nearest[robot.robot], rank[robot.robot])):
         base = _held_plan(robot.nameless, travel_time)
         if not base:
             continue
@@ -199,18 +204,21 @@ def _by_delivery_time(task, robots, travel_time, waiting_weight: float, *, prune
             continue
         late, waiting = _delays(robot, base, plan, (*robot.tasks, task), task.code, travel)
         key = (math.floor(late), plan.cost - base.cost + waiting_weight * waiting)
-        if best is None or _before(key, robot.robot, *best):
+        if best is None or _before(key, rank[robot.robot], *best, rank):
             best = (key, Allocation(robot.robot, plan, plan.cost - base.cost))
     return best and best[1]
 
 
-def _before(key: tuple[int, float], code: str, best: tuple[int, float], held: Allocation) -> bool:
-    """Whether an offer with `key` from robot `code` beats the best so far (ties: the code)."""
+def _before(
+    key: tuple[int, float], ranked, best: tuple[int, float], held: Allocation, rank
+) -> bool:
+    """Whether an offer with `key` from a robot ranked `ranked` beats the best so far (ties:
+    _rank)."""
     if key[0] != best[0]:
         return key[0] < best[0]
     if abs(key[1] - best[1]) > TOLERANCE:
         return key[1] < best[1]
-    return code < held.robot
+    return ranked < rank[held.robot]
 
 
 def _earliest_done(task: TaskStops, robot: RobotRoute, travel: _Travel) -> float:
@@ -267,7 +275,8 @@ def allocate_standby_first(
     of several, the one that reaches the task's first pick-up soonest. Only when no standby
     robot can take it does it go to the robot whose route it lengthens least (`allocate`).
 
-    Ties go to the smallest robot code. `added_cost` is the added travel.
+    Ties go to the robot given fewer tasks, then to the smallest code. `added_cost` is the
+    added travel.
     """
     travel = _Travel(travel_time)
     best = None
@@ -295,11 +304,11 @@ def _held_plan(robot: RobotRoute, travel_time: TravelTime) -> Plan | None:
 
 
 def _distinct(robots: Iterable[RobotRoute]) -> list[RobotRoute]:
-    """The robots by code, without those whose route (start, load, tasks, pace, ...) is the
+    """The robots by _rank, without those whose route (start, load, tasks, pace, ...) is the
     same as a robot's before them: they would be made the same offer, and ties go to the
-    smallest code. A burst offers each task to every robot; most stand empty at a few docks."""
+    first by _rank. A burst offers each task to every robot; most stand empty at a few docks."""
     seen, distinct = set(), []
-    for robot in sorted(robots, key=lambda robot: robot.robot):
+    for robot in sorted(robots, key=_rank):
         if (route := robot.nameless) not in seen:
             seen.add(route)
             distinct.append(robot)
@@ -451,10 +460,17 @@ class _Row(dict):
         return seconds
 
 
-def _is_better(offer: Allocation, best: Allocation | None) -> bool:
+def _is_better(offer: Allocation, best: Allocation | None, rank: dict) -> bool:
     if best is None or offer.added_cost < best.added_cost - TOLERANCE:
         return True
-    return offer.added_cost <= best.added_cost + TOLERANCE and offer.robot < best.robot
+    tied = offer.added_cost <= best.added_cost + TOLERANCE
+    return tied and rank[offer.robot] < rank[best.robot]
+
+
+def _rank(robot: RobotRoute) -> tuple[int, str]:
+    """How ties between equally good offers go: to the robot given fewer tasks, then to the
+    smallest code."""
+    return robot.wear, robot.robot
 
 
 def _offer(task, robot, travel, *, margin: float, metric: bool) -> Allocation | None:

@@ -136,6 +136,7 @@ def _held_route(robot: Robot, stops: list[TaskStop], now: datetime) -> HeldRoute
         pace=pace,
         lockable=len(robot.lockable_compartments),
         secure_load=sum(stop.load_change for stop in stops if stop.done_at and stop.task.secure),
+        wear=robot.tasks_given,
     )
     signature = tuple((s.pk, s.task.status, s.is_remaining) for s in stops)
     tasks = {task.code: task for task in by_task}
@@ -370,6 +371,18 @@ def stations_for_site(*, site: Site) -> list[tuple[str, str]]:
     return sorted(named, key=lambda s: s[1])
 
 
+def station_options(*, site: Site) -> list[dict[str, str]]:
+    """The stations for the request form's search, by name: each one's code, name and ward
+    (its floor's name, else the floor's code), from the cached map."""
+    current = site_map(site)
+    options = []
+    for code, name in stations_for_site(site=site):
+        floor = current.waypoints[code].floor
+        ward = current.floor_names.get(floor) or floor
+        options.append({"code": code, "name": name, "ward": ward})
+    return options
+
+
 def tasks_by_robot(*, robots: Iterable[Robot]) -> dict[int, list[Task]]:
     """The tasks each robot holds (assigned to delivered), oldest first; one query."""
     held: dict[int, list[Task]] = defaultdict(list)
@@ -436,6 +449,7 @@ class Incoming:
     robot: Robot | None
     arrived_at: datetime | None  # the robot is there, waiting to be unloaded, since
     approaching: bool  # due within APPROACHING
+    pin: str | None = None  # a secure delivery's PIN, set by the page for those who may see it
 
     @property
     def is_here(self) -> bool:

@@ -141,6 +141,11 @@ ensure_nginx
 umask 077
 ensure_secret_key
 check_ports_free
+# Every process's log lines in one zone, the site's (settings.TIME_ZONE): Django sets it in its
+# own processes, TZ gives it to nginx, honcho's line prefix and gunicorn's master too.
+TZ="$(python -c 'import os; os.environ["DJANGO_SETTINGS_MODULE"] = "hospital_delivery.settings"
+from django.conf import settings; print(settings.TIME_ZONE)')"
+export TZ
 
 log "migrating the database"
 python manage.py migrate --noinput
@@ -158,14 +163,42 @@ hook_create_demo_users
 hook_issue_robot_tokens
 hook_prepare_fleet
 
-# The banner once the login page answers through the proxy (not while it still says 502),
-# with the demo logins last, below the processes' start-up lines.
+# The banner once the login page answers through the proxy (not while it still says 502) and a
+# sweep has run (Celery's worker and beat are up, their start-up lines printed), with the demo
+# logins last: below them the terminal shows only deliveries, alerts and errors.
 announce_when_up() {
-    local tries
-    for ((tries = 0; tries < 600; tries++)); do
-        if python -c 'import sys, urllib.request; urllib.request.urlopen(sys.argv[1], timeout=2)' \
-            "http://127.0.0.1:${PORT_HTTP}/accounts/login/" 2>/dev/null; then
-            cat >&2 <<EOF
+    local logins
+    logins="$(python manage.py demo_setup --only users)"
+    if python - "http://127.0.0.1:${PORT_WEB}" "http://127.0.0.1:${PORT_HTTP}" <<'PY'; then
+import json
+import sys
+import time
+import urllib.error
+import urllib.request
+
+
+def answer(url):
+    try:
+        with urllib.request.urlopen(url, timeout=2) as response:
+            return response.status, response.read()
+    except urllib.error.HTTPError as error:  # /healthz says 503 until every sweep has run
+        return error.code, error.read()
+    except OSError:
+        return None, b""
+
+
+# gunicorn itself first (asking the proxy before would only fill its error log with 502s).
+web, proxy = sys.argv[1:3]
+deadline = time.monotonic() + 300
+while time.monotonic() < deadline:
+    health, body = answer(f"{web}/healthz")
+    if health in (200, 503) and any(s["last_run"] for s in json.loads(body)["sweeps"].values()):
+        if answer(f"{proxy}/accounts/login/")[0] == 200:
+            sys.exit(0)
+    time.sleep(0.5)
+sys.exit(1)
+PY
+        cat >&2 <<EOF
 
   hospital_delivery is up: open http://127.0.0.1:${PORT_HTTP}/
   (admin: http://127.0.0.1:${PORT_HTTP}/admin/, API docs: http://127.0.0.1:${PORT_HTTP}/api/docs/,
@@ -173,15 +206,14 @@ announce_when_up() {
   Simulated robots (a share of them VDA 5050 vehicles over MQTT, through the vda5050 bridge)
   drive the site at ${FLEET_SPEEDUP}x real time (a delivery across floors takes
   well under a minute), with ${FLEET_TRAFFIC} random deliveries per simulated hour.
-  Ctrl-C stops everything.
+  From here on this terminal shows deliveries, alerts and errors (LOG_LEVEL, default
+  WARNING); log times are in ${TZ} (the site's time zone). Ctrl-C stops everything.
 
+${logins}
 EOF
-            python manage.py demo_setup --only users >&2
-            return 0
-        fi
-        sleep 0.5
-    done
-    log "the page did not answer at http://127.0.0.1:${PORT_HTTP}/: see the lines above"
+    else
+        log "the page did not answer at http://127.0.0.1:${PORT_HTTP}/: see the lines above"
+    fi
 }
 mkdir -p var/log
 log "starting; the address and the demo logins follow once the page answers"

@@ -12,6 +12,7 @@ from django.core.exceptions import PermissionDenied
 from django.http import Http404
 from django.shortcuts import get_object_or_404, redirect, render
 from django.urls import reverse
+from django.utils.translation import gettext as _
 from django.views.decorators.http import require_POST
 
 from accounts.workstations import workstation_of
@@ -25,15 +26,22 @@ from scheduling.models import Task
 from scheduling.selectors import (
     given_back_entries,
     history_in_words,
+    station_options,
     stations_for_site,
     task_detail,
     task_disruption,
 )
 from scheduling.serializers import TaskRequestSerializer
-from scheduling.services import TaskNotCancellable, task_cancel, task_request
+from scheduling.services import (
+    PinNotResendable,
+    TaskNotCancellable,
+    task_cancel,
+    task_pin_resend,
+    task_request,
+)
 from ui.forms import DeliveryRequestForm
 from ui.live.parts import schedule_context, user_may_cancel
-from ui.selectors import page_site
+from ui.selectors import page_site, pin_for_requester
 
 
 def workstations_to_their_page(view):
@@ -80,7 +88,7 @@ def deliveries(request):
         "page_site": site,
         "sites": sites,
         "form": form,
-        "stations": stations,
+        "station_options": station_options(site=site),
         **schedule_context(request, site),
     }
     return render(request, "scheduling/deliveries.html", context, status=status)
@@ -121,7 +129,7 @@ def task_history(request, code: str):
         "on_hold": on_hold,
         "can_cancel": user_may_cancel(request.user, task),
         # A secure delivery's PIN, again, to whoever asked for it, until it is handed over.
-        "pin": task.pin_to_hand_on() if request.user.pk == task.requester_id else None,
+        "pin": pin_for_requester(task, request.user),
         # Ordered by a hospital system (FHIR): its order and patient, by identifiers only.
         "order": order,
     }
@@ -144,6 +152,32 @@ def task_cancel_post(request, code: str):
     else:
         messages.success(request, f"Delivery {task.code} cancelled.")
     return redirect(_deliveries_url(task.site))
+
+
+@require_POST
+@member_required
+def task_pin_resend_post(request, code: str):
+    """The requester of a secure delivery posts its PIN again to the receiving station's page."""
+    task = get_object_or_404(Task.objects.with_code(code).select_related("site"))
+    site_required(request.user, task.site_id, f"task {code!r}")
+    try:
+        task_pin_resend(task=task, user=request.user)
+    except PinNotResendable as refused:
+        messages.error(
+            request,
+            _("The PIN of %(code)s was not re-sent: %(why)s.")
+            % {"code": task.code, "why": refused},
+        )
+    else:
+        messages.success(
+            request,
+            _(
+                "The PIN of %(code)s is shown again on the receiving station's page, to its "
+                "unit's staff signed in there."
+            )
+            % {"code": task.code},
+        )
+    return redirect("task-history", task.code)
 
 
 def _deliveries_url(site: Site) -> str:

@@ -23,6 +23,7 @@ class DrawnWaypoint:
     anchor: str = "middle"  # of its label: "start" near the left edge, "end" near the right
     label_y: float | None = None  # its name's baseline from the point; None: not written
     resources_y: float | None = None  # likewise for the resources it is a waiting area of
+    resources_label: str = ""  # those of them not already written at another point of the floor
 
     @property
     def label_x(self) -> float:
@@ -122,18 +123,23 @@ SYMBOL = 1.4  # half the size of a station's, dock's or waiting area's symbol
 def _labels_placed(waypoints: list[DrawnWaypoint]) -> list[DrawnWaypoint]:
     """Each label above its point, else below, where it covers no other label or symbol;
     one that fits nowhere is left out (the point's tooltip still names it), so labels
-    never run into each other ("RoboRoRobot base dock 4 3")."""
+    never run into each other ("RoboRoRobot base dock 4 3"). A resource is written once per
+    floor, at the first of its waiting areas (a door has one on each side)."""
     taken = [_symbol_box(wp) for wp in waypoints if wp.kind != WaypointKind.PLAIN]
+    written: set[str] = set()
     placed = []
     for wp in waypoints:
         label_y = resources_y = None
         if wp.kind in (WaypointKind.STATION, WaypointKind.DOCK):
             label_y = _free_line(wp, wp.label, taken, [LABEL_ABOVE, LABEL_BELOW])
-        if wp.resources:
+        text = ", ".join(code for code in wp.resources if code not in written)
+        if text:
             lines = [LABEL_BELOW, LABEL_ABOVE]
-            text = ", ".join(wp.resources)
             resources_y = _free_line(wp, text, taken, [y for y in lines if y != label_y])
-        placed.append(replace(wp, label_y=label_y, resources_y=resources_y))
+        if resources_y is not None:
+            written.update(wp.resources)
+        label = text if resources_y is not None else ""
+        placed.append(replace(wp, label_y=label_y, resources_y=resources_y, resources_label=label))
     return placed
 
 

@@ -26,4 +26,4 @@ def station_page(request, code: str):
     station = station_of(site, code)
     if station is None or station.kind != WaypointKind.STATION:
         raise Http404(f"no station {code!r} at {site.code}")
-    return render(request, "scheduling/station.html", station_context(site, station))
+    return render(request, "scheduling/station.html", station_context(site, station, request.user))

@@ -7,6 +7,9 @@ urlpatterns = [
     path("", deliveries.deliveries, name="deliveries"),
     path("deliveries/<str:code>/", deliveries.task_history, name="task-history"),
     path("deliveries/<str:code>/cancel", deliveries.task_cancel_post, name="task-cancel-page"),
+    path(
+        "deliveries/<str:code>/pin-resend", deliveries.task_pin_resend_post, name="task-pin-resend"
+    ),
     path("workstation/", workstation.workstation_page, name="workstation"),
     path("account/pin/", workstation.pin_page, name="account-pin"),
     path("custody.csv", custody.custody_csv, name="custody-csv"),

@@ -17,7 +17,7 @@ from django.views.decorators.debug import sensitive_post_parameters
 from accounts.services import account_pin_set
 from accounts.workstations import may_order_at, person_identify, workstation_of
 from core.access import member_required
-from scheduling.selectors import stations_for_site
+from scheduling.selectors import station_options, stations_for_site
 from scheduling.serializers import TaskRequestSerializer
 from scheduling.services import task_request
 from ui.deliveries import request_warnings, workstations_to_their_page
@@ -72,7 +72,7 @@ def workstation_page(request):
         "form": form,
         "identify": identify,
         "sites": [site],
-        "stations": stations_for_site(site=site),
+        "station_options": station_options(site=site),
         "orders": tasks_by_pk(request.session.get(ORDERS_SESSION_KEY, []), site=site),
     }
     status = 400 if data is not None else 200

@@ -28,6 +28,9 @@ class Robot(models.Model):
     name = models.CharField(max_length=200, blank=True)
     dock = models.ForeignKey(Waypoint, on_delete=models.PROTECT, related_name="docked_robots")
     capacity = models.PositiveSmallIntegerField(default=4, help_text="items it can carry")
+    # Deliveries the allocator has given it: among robots equally good for a task the one given
+    # fewer takes it, so wear spreads over a fleet that mostly waits at its docks.
+    tasks_given = models.PositiveIntegerField(default=0, editable=False)
     # From the site file: [{"code": "A", "lockable": true}, ...], one item each (so capacity is
     # their number). Secure deliveries go only to robots with a lockable one.
     compartments = models.JSONField(default=list, blank=True)

@@ -95,6 +95,9 @@ class Task(models.Model):
     pin_hash = models.CharField(max_length=128, blank=True, editable=False)
     pin_digits = models.PositiveSmallIntegerField(default=0, editable=False)
     pin_sealed = models.TextField(blank=True, editable=False)
+    # When its requester last re-sent the PIN to the receiving station (a notice on its page
+    # for the unit's staff; scheduling/services/pins.py).
+    pin_resent_at = models.DateTimeField(null=True, blank=True, editable=False)
     waiting_reason = models.CharField(
         max_length=200, blank=True, help_text="why no robot took it yet"
     )

@@ -45,6 +45,7 @@ from scheduling.services.operator import (
     resource_operator_set_service,
     robot_action,
 )
+from scheduling.services.pins import PinNotResendable, task_pin_resend
 from scheduling.services.presence import robot_offline, robot_tasks_give_back
 from scheduling.services.recurring import recurring_stop
 from scheduling.services.requests import recurring_sweep, task_request
@@ -53,6 +54,8 @@ from scheduling.services.timeouts import ack_timeout_sweep
 from scheduling.services.unloading import task_move_on, unattended_sweep, unload_timeout_sweep
 
 __all__ = [
+    "PinNotResendable",
+    "task_pin_resend",
     "EmergencyRefused",
     "MaintenanceRefused",
     "TaskChanged",

@@ -14,12 +14,13 @@ paper); see bench/fleet_day.py.
 
 import logging
 import statistics
+from collections import Counter
 from dataclasses import dataclass, replace
 from datetime import datetime, timedelta
 
 from django.conf import settings
 from django.db import transaction
-from django.db.models import Case, IntegerField, Value, When
+from django.db.models import Case, F, IntegerField, Value, When
 from django.utils import timezone
 from django.utils.translation import gettext_noop
 
@@ -282,6 +283,7 @@ class _Batch:
         tasks_record(self.assigned, old=TaskStatus.DUE, at=self.now, cause=Cause.ALLOCATION)
         for task, robot in self.assigned:
             task_deadline_check(task=task, robot=robot)
+        _tasks_given_count(Counter(robot.pk for _task, robot in self.assigned))
 
 
 def due_sweep(*, now: datetime | None = None) -> int:
@@ -405,6 +407,13 @@ def _candidates(routes: dict[int, HeldRoute]) -> dict[int, HeldRoute]:
     return routes
 
 
+def _tasks_given_count(given: dict[int, int]) -> None:
+    """Count the tasks just given to each robot (Robot.tasks_given, the allocator's tie-break);
+    the robots' rows are locked by the allocation."""
+    for robot_id, count in given.items():
+        Robot.objects.filter(pk=robot_id).update(tasks_given=F("tasks_given") + count)
+
+
 def _at_fleet_pace(routes: dict[int, HeldRoute]):
     """The routes compared at one pace, the median of those the robots have learned: a pace is
     learned only by a robot that travels, so the first robot to learn one (much faster than
@@ -471,6 +480,7 @@ def _assign(task: Task, robot: Robot, held: HeldRoute, stops, now: datetime) -> 
         raise _CancelledMeanwhile(task.code)
     task_record(task, old=TaskStatus.DUE, at=now, cause=Cause.ALLOCATION, robot=robot)
     task_deadline_check(task=task, robot=robot)
+    _tasks_given_count({robot.pk: 1})
     return True
 
 

@@ -396,11 +396,16 @@
       }
       return nodes;
     },
-    place: (r) => {
+    place: (r, cell) => {
       if (!r.floor) {
         return [muted("—")];
       }
-      return [document.createTextNode(r.place ? `${r.floor} · ${r.place}` : r.floor)];
+      const nodes = [document.createTextNode(r.place ? `${r.floor} · ${r.place}` : r.floor)];
+      if (r.waypoint && cell.hasAttribute("data-with-code")) {
+        // operators also get the place's code, as the map, the plans and the robots name it
+        nodes.push(document.createTextNode(" "), element("span", "muted small place-code", r.waypoint));
+      }
+      return nodes;
     },
     position: (r) =>
       r.x === null || r.x === undefined
@@ -432,7 +437,7 @@
     container.querySelectorAll("[data-field]").forEach((cell) => {
       const render = ROBOT_FIELDS[cell.dataset.field];
       if (render) {
-        cell.replaceChildren(...render(r));
+        cell.replaceChildren(...render(r, cell));
       }
     });
     if (container.matches("tr")) {

@@ -220,7 +220,7 @@
 
   function addWaypoint(code, x, y) {
     if (findWaypoint(code)) {
-      say(`There is already a waypoint ${code}.`);
+      say(interpolate(gettext("There is already a waypoint %(code)s."), { code }, true));
       return false;
     }
     waypoints(); // the floor's list exists from here on
@@ -651,7 +651,7 @@
     if (!code || /\s/.test(code)) {
       say("A code is one word, without spaces.");
     } else if (code !== selected && findWaypoint(code)) {
-      say(`There is already a waypoint ${code}.`);
+      say(interpolate(gettext("There is already a waypoint %(code)s."), { code }, true));
     } else if (code !== selected) {
       recode(selected, code);
     }

@@ -11,9 +11,10 @@ from django.test import Client
 from django.utils import timezone
 from playwright.sync_api import expect
 
-from robots.models import Robot
+from robots.models import Robot, SiteMembership, Waypoint
 from robotsim.client import pin_check
 from scheduling.models import Task
+from tests import factories
 from tests.conftest import RobotHttp
 from tests.scheduling.conftest import event, request
 
@@ -27,6 +28,14 @@ AT_WARD = {"floor": "3F", "waypoint": "3F-WARD", "status": "waiting_unload"}
 def plan_of(reply: dict) -> dict:
     [plan] = [m for m in reply["messages"] if m["type"] == "plan"]
     return plan
+
+
+def unit_member(site, username: str, station: str):
+    """A nurse of the site whose unit is `station`: its staff."""
+    user = factories.user_create(username, "nurse", sites=[site])
+    unit = Waypoint.objects.get(site=site, code=station)
+    SiteMembership.objects.filter(user=user, site=site).update(unit=unit)
+    return user
 
 
 def test_a_secure_delivery_from_order_to_custody_record(
@@ -57,7 +66,11 @@ def test_a_secure_delivery_from_order_to_custody_record(
     expect(others.locator("h1")).to_contain_text(task.code)
     expect(others.get_by_text(pin)).to_have_count(0)
 
-    station = open_page(operator, f"/stations/3F-WARD/?site={site.code}")  # the receiving unit
+    ward_nurse = unit_member(site, "lee", "3F-WARD")
+    elsewhere = open_page(operator, f"/stations/3F-WARD/?site={site.code}", live=False)
+    expect(elsewhere.locator("#incoming")).to_contain_text(task.code)
+    expect(elsewhere.get_by_text(pin)).to_have_count(0)  # not of the receiving unit
+    station = open_page(ward_nurse, f"/stations/3F-WARD/?site={site.code}")  # the receiving unit
     frames = []
     station.on("websocket", lambda ws: ws.on("framereceived", lambda frame: frames.append(frame)))
     station.reload()
@@ -124,3 +137,51 @@ def test_wrong_pins_keep_it_locked_and_an_operator_sees_the_alert_live(
     expect(alert).to_contain_text("Compartment B kept locked at Ward 3 after 3 wrong PINs")
     task.refresh_from_db()
     assert task.status == "picked_up"
+
+
+def test_the_requester_re_sends_the_pin_to_the_receiving_units_staff(
+    open_page, page_servers, nurse, operator, robot, site
+):
+    Robot.objects.filter(pk=robot.pk).update(compartments=LOCKING)
+    RobotHttp(page_servers.http, robot).heartbeat(1)
+    task = request(site, secure=True, dropoffs=("3F-WARD",), user=nurse, allocate_now=True)
+    pin = task.pin_plain
+    ward_nurse = unit_member(site, "lee", "3F-WARD")
+    other_ward = unit_member(site, "cho", "2F-LAB")
+    station = open_page(ward_nurse, f"/stations/3F-WARD/?site={site.code}")
+    frames = []
+    station.on("websocket", lambda ws: ws.on("framereceived", lambda frame: frames.append(frame)))
+    station.reload()
+    expect(station.locator("#live-status")).to_have_text("Live")
+    watching = open_page(operator, f"/stations/3F-WARD/?site={site.code}")
+
+    mine = open_page(nurse, f"/deliveries/{task.code}/", live=False)
+    mine.get_by_role("button", name="Re-send the PIN to the receiving station").click()
+    expect(mine.locator(".messages")).to_contain_text(
+        f"The PIN of {task.code} is shown again on the receiving station's page"
+    )
+
+    notice = station.locator(f"[data-pin-resent='{task.code}']")
+    expect(notice).to_contain_text(f"re-sent to this station by the person who ordered it: {pin}")
+    expect(watching.locator(f"[data-pin-resent='{task.code}']")).to_contain_text(
+        "its unit's staff, signed in, see it here"
+    )
+    expect(watching.get_by_text(pin)).to_have_count(0)
+    another = open_page(other_ward, f"/stations/3F-WARD/?site={site.code}", live=False)
+    expect(another.locator(f"[data-pin-resent='{task.code}']")).to_be_visible()
+    expect(another.get_by_text(pin)).to_have_count(0)
+    assert frames
+    assert not [frame for frame in frames if pin in str(frame)]
+    history = Client()
+    history.force_login(operator)
+    assert pin not in history.get(f"/deliveries/{task.code}/").content.decode()
+
+
+def test_only_the_requester_may_re_send_a_pin(client, nurse, operator, robot, site):
+    task = request(site, secure=True, dropoffs=("3F-WARD",), user=nurse, allocate_now=True)
+    client.force_login(operator)
+
+    client.post(f"/deliveries/{task.code}/pin-resend")
+
+    task.refresh_from_db()
+    assert task.pin_resent_at is None

@@ -1,6 +1,9 @@
 """settings.ALLOCATION_POLICY: the paper's rule (a standby robot first), online multi-task
 allocation by added travel or by delivery time, or single-task (bench/fleet_day.py)."""
 
+import pytest
+
+from robots.models import Robot
 from scheduling.models import Task
 from scheduling.services import task_allocate
 from scheduling.services.allocation import NO_EMPTY_ROBOT
@@ -77,3 +80,27 @@ def test_single_leaves_a_task_due_while_every_robot_holds_one(r1, site, settings
 
     assert allocated(waiting) is None
     assert (waiting.status, waiting.waiting_reason) == ("due", NO_EMPTY_ROBOT)
+
+
+@pytest.mark.parametrize("policy", ["paper", "least_travel", "delivery_time", "single"])
+def test_of_equally_good_robots_the_one_given_fewer_tasks_takes_it(r1, r2, site, settings, policy):
+    settings.ALLOCATION_POLICY = policy
+    robot_ready(r2, at="1F-DOCK-1")  # beside R1: either is as good
+    Robot.objects.filter(pk=r1.pk).update(tasks_given=3)
+
+    assert allocated(request(site)) == r2
+    r2.refresh_from_db()
+    assert r2.tasks_given == 1
+
+
+def test_the_wear_tie_break_spreads_tasks_over_robots_alike(r1, r2, site, settings):
+    settings.ALLOCATION_POLICY = "paper"
+    robot_ready(r2, at="1F-DOCK-1")
+    given = []
+    for _ in range(4):
+        task = request(site)
+        given.append(allocated(task).code)
+        Task.objects.filter(pk=task.pk).update(status="delivered")  # each back at the dock
+
+    assert given == ["R1", "R2", "R1", "R2"]
+    assert sorted(Robot.objects.values_list("tasks_given", flat=True)) == [2, 2]

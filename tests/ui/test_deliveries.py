@@ -6,8 +6,10 @@ from datetime import timedelta
 import pytest
 from django.utils import timezone
 
-from robots.models import Site
+from robots.mapcache import site_map_forget
+from robots.models import Floor, Site
 from scheduling.models import RecurringRequest, Task
+from scheduling.selectors import station_options
 from tests import factories
 from tests.scheduling.conftest import request
 
@@ -59,7 +61,9 @@ def test_it_labels_every_field_as_the_paper_does(nurse_client, site):
         assert f'<label for="{field_id}">{label}</label>' in html
         assert f'id="{field_id}"' in html
     assert '<button type="submit" class="button-primary">Request delivery</button>' in html
-    assert '<option value="Laboratory" label="2F-LAB">' in html  # stations by their names
+    # stations by their names, for the search (static/js/combobox.js)
+    assert '"code": "2F-LAB", "name": "Laboratory", "ward": "2F"' in html
+    assert 'data-combobox="station-options"' in html
 
 
 def test_it_requests_a_delivery_like_the_api_does(nurse_client, nurse, site):
@@ -308,3 +312,13 @@ def test_it_names_the_stations_a_part_of_a_name_matches(nurse_client, site):
         "“ar” matches 2 stations (Pharmacy, Ward 3): type more of the name."
     )
     assert not Task.objects.exists()
+
+
+def test_it_offers_each_station_with_its_ward_for_the_search(site):
+    Floor.objects.filter(site=site, code="3F").update(name="Ward 3 and day surgery")
+    site_map_forget(site.pk)
+
+    options = station_options(site=site)
+
+    assert {"code": "3F-WARD", "name": "Ward 3", "ward": "Ward 3 and day surgery"} in options
+    assert {"code": "2F-LAB", "name": "Laboratory", "ward": "2F"} in options  # no floor name

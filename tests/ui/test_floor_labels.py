@@ -19,7 +19,7 @@ def written_labels(drawing) -> list[tuple]:
         if wp.label_y is not None:
             boxes.append(_text_box(wp, wp.label, wp.label_y))
         if wp.resources_y is not None:
-            boxes.append(_text_box(wp, ", ".join(wp.resources), wp.resources_y))
+            boxes.append(_text_box(wp, wp.resources_label, wp.resources_y))
     return boxes
 
 
@@ -38,3 +38,12 @@ def test_it_writes_the_demo_site_s_labels_apart(db):
         named += sum(1 for wp in drawing.waypoints if wp.kind in ("station", "dock"))
         named += sum(1 for wp in drawing.waypoints if wp.resources)
     assert written >= 0.9 * named  # only a crowded few are left to their tooltips
+
+
+def test_it_writes_each_resource_once_per_floor(site):
+    drawing = floor_drawing(site=site, floor="2F")  # DOOR-2F has a waiting area on each side
+
+    labels = [wp.resources_label for wp in drawing.waypoints if wp.resources_y is not None]
+    written = [code for label in labels for code in label.split(", ")]
+    assert sorted(written) == sorted(set(written))
+    assert "DOOR-2F" in written

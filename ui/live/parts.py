@@ -3,7 +3,7 @@ template when the page is rendered (ui/deliveries.py, ui/fleet.py) and when it r
 after a reconnect or an event (ui/live/state.py).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from django.template.loader import render_to_string
 from django.utils import timezone
@@ -17,7 +17,7 @@ from robots.selectors import fleet_snapshot
 from scheduling.models import Task
 from scheduling.selectors import robot_plan, schedule_for_site, station_incoming, tasks_by_robot
 from ui.live.payloads import robot_payload
-from ui.selectors import robot_detail
+from ui.selectors import pin_for_station, robot_detail, user_unit_ids
 
 
 def schedule_part(request, site: Site) -> str:
@@ -52,7 +52,7 @@ def station_part(request, site: Site, code: str) -> str | None:
     station = station_of(site, code)
     if station is None:
         return None
-    context = station_context(site, station)
+    context = station_context(site, station, request.user)
     return render_to_string("scheduling/_station_rows.html", context, request=request)
 
 
@@ -73,10 +73,27 @@ def station_of(site: Site, code: str) -> Waypoint | None:
     return Waypoint.objects.filter(site=site, code=code).first()
 
 
-def station_context(site: Site, station: Waypoint) -> dict:
+def station_context(site: Site, station: Waypoint, user) -> dict:
+    """The deliveries on their way to the station; a secure one's PIN only for the receiving
+    unit's staff and its requester (ui.selectors.pin_for_station), and the PINs their
+    requesters re-sent as notices."""
     now = timezone.now()
-    rows = station_incoming(site=site, station=station, now=now)
-    return {"page_site": site, "station": station, "incoming": rows, "now": now}
+    unit_staff = station.pk in user_unit_ids(user, site)
+    rows = [
+        replace(row, pin=pin_for_station(row.task, user, unit_staff=unit_staff))
+        if row.task.secure
+        else row
+        for row in station_incoming(site=site, station=station, now=now)
+    ]
+    resent = [row for row in rows if row.task.secure and row.task.pin_resent_at]
+    return {
+        "page_site": site,
+        "station": station,
+        "incoming": rows,
+        "resent": resent,
+        "unit_staff": unit_staff,
+        "now": now,
+    }
 
 
 def user_may_cancel(user, task: Task) -> bool:
