@@ -11,19 +11,20 @@ instead, with valgrind's callgrind (Debian's package `valgrind`), which counts t
 same code and input whatever else the machine runs: a change of 1 % shows. A robot at its dock
 heartbeats (no events, acks or requests; the body of bench/heartbeat.py) through Django's WSGI
 handler as gunicorn calls it (every middleware, DRF, the row lock, the board, the answer), not
-through the test client, so nothing of the test client is counted. The process runs twice under
-callgrind, side by side (robots R1 and R2), sending 20 heartbeats and 20 + N; the difference
-of the two totals, divided by N, leaves out the start (imports, the site loaded, the caches
-filled). The HTTP server and the database server are not counted; the queries a heartbeat
+through the test client, so nothing of the test client is counted. The process runs once under
+callgrind with its instrumentation off (`--instr-atstart=no`: the start, imports, the site loaded
+and 20 heartbeats that fill the caches run several times faster uninstrumented), then turns it
+on and off around two windows (callgrind_control, each window dumped): one with no heartbeat,
+one with N; the difference of the two, divided by N, leaves out what the switching itself costs.
+The HTTP server and the database server are not counted; the queries a heartbeat
 sends are printed, for those, and on PostgreSQL its round trips (libpq's trace,
-core/pgtrace.py: what a web worker waits for).
+core/pgtrace.py: what a web worker waits for), from another process on a database of its own.
 
 With --delivery it counts a delivery's cycle instead, what a burst of requests costs the web
 workers per task (bench/latency.py): a staff user's `POST /api/v1/tasks/` allocated in the
 request to the one robot at its dock (ALLOCATE_ON_REQUEST), the robot's heartbeat that takes
 the plan, the one that reports the delivery done (loaded, unloaded, task_completed, as
-bench/latency.py's robots report at once) and the one that acknowledges; each process on a
-database of its own, with its own site, robot and user.
+bench/latency.py's robots report at once) and the one that acknowledges.
 """
 
 from __future__ import annotations
@@ -54,7 +55,7 @@ from bench.stack import database_option, temporary_database
 
 ROOT = Path(__file__).resolve().parent.parent
 SITE_FILE = ROOT / "sites" / "eulji.yaml"
-WARMUP = 20  # heartbeats in both runs: caches (site map, statements, prepared queries) filled
+WARMUP = 20  # heartbeats before counting: caches (site map, statements, prepared queries) filled
 CYCLES_WARMUP = 5  # delivery cycles likewise (--delivery)
 
 
@@ -66,7 +67,6 @@ def main() -> None:
         "--delivery", action="store_true", help="count delivery cycles, not plain heartbeats"
     )
     parser.add_argument("--send", type=int, help=argparse.SUPPRESS)  # the child under valgrind
-    parser.add_argument("--robot", default="R1", help=argparse.SUPPRESS)
     database_option(parser)
     saving.add_argument(parser)
     options = parser.parse_args()
@@ -75,7 +75,7 @@ def main() -> None:
         _django_finish()
         return
     if options.send is not None:
-        _child(_sender(options.database, options.robot), options.send, WARMUP)
+        _child(_sender(options.database, "R1"), options.send, WARMUP)
         return
     valgrind = shutil.which("valgrind")
     if valgrind is None:
@@ -84,9 +84,10 @@ def main() -> None:
         _delivery_main(valgrind, options)
         return
     counted = 20 if options.quick else 200
-    with temporary_database(options.database) as url:
-        queries, trips = _queries_of_one(url)
-        before, after = _instructions(valgrind, url, (WARMUP, WARMUP + counted))
+    with contextlib.ExitStack() as stack:
+        # Each process loads its site and robot: a database each.
+        urls = [stack.enter_context(temporary_database(options.database)) for _ in range(2)]
+        before, after, queries, trips = _instructions(valgrind, urls, counted)
     today = datetime.datetime.now(datetime.UTC).date()
     print(f"heartbeat instructions benchmark, {today} (UTC), Python {platform.python_version()}")
     print(f"{counted} heartbeats counted (after {WARMUP}), through the WSGI handler")
@@ -98,12 +99,10 @@ def main() -> None:
 
 def _delivery_main(valgrind: str, options) -> None:
     counted = 3 if options.quick else 30
-    counts = (CYCLES_WARMUP, CYCLES_WARMUP + counted)
     with contextlib.ExitStack() as stack:
         # Each process makes its site, robot and user: a database each.
-        urls = [stack.enter_context(temporary_database(options.database)) for _ in range(3)]
-        queries, trips = _queries_of_one(urls[2], ["--delivery"])
-        before, after = _instructions(valgrind, urls[:2], counts, ["--delivery"])
+        urls = [stack.enter_context(temporary_database(options.database)) for _ in range(2)]
+        before, after, queries, trips = _instructions(valgrind, urls, counted, ["--delivery"])
     today = datetime.datetime.now(datetime.UTC).date()
     print(f"delivery instructions benchmark, {today} (UTC), Python {platform.python_version()}")
     print(f"{counted} delivery cycles counted (after {CYCLES_WARMUP}), through the WSGI handler")
@@ -114,35 +113,45 @@ def _delivery_main(valgrind: str, options) -> None:
 
 
 def _instructions(
-    valgrind: str, database_urls: str | list[str], counts: tuple[int, ...], extra=()
-) -> list[int]:
-    """The instructions a process sending each count of heartbeats (or of delivery cycles,
-    extra ["--delivery"], each on its database) executes in all, by callgrind; the processes
-    run side by side."""
-    if isinstance(database_urls, str):
-        database_urls = [database_urls] * len(counts)
+    valgrind: str, database_urls: list[str], counted: int, extra=()
+) -> tuple[int, int, list[str], list[str]]:
+    """The instructions of callgrind's two windows (no heartbeat, then `counted` heartbeats, or
+    delivery cycles with extra ["--delivery"]) in a process on the first database; and the
+    statements of one (_queries_of_one) from a process on the second, run meanwhile."""
     with tempfile.TemporaryDirectory(prefix="hd-callgrind-") as directory:
-        runs = [
-            subprocess.Popen(
-                [
-                    *(valgrind, "--tool=callgrind", f"--callgrind-out-file={directory}/{count}"),
-                    *(sys.executable, __file__, "--send", str(count), *extra),
-                    *("--robot", f"R{n}", "--database", url),
-                ],
-                stdout=subprocess.PIPE,
-                stderr=subprocess.PIPE,
-                text=True,
-            )
-            for n, (count, url) in enumerate(zip(counts, database_urls, strict=True), 1)
-        ]
-        outputs = [run.communicate() for run in runs]
-    totals = []
-    for run, (stdout, stderr) in zip(runs, outputs, strict=True):
-        collected = re.search(r"Collected : (\d+)", stderr)
-        if run.returncode != 0 or collected is None:
-            raise SystemExit(f"a counted run failed:\n{stdout}\n{stderr}")
-        totals.append(int(collected.group(1)))
-    return totals
+        out = f"{directory}/callgrind.out"
+        run = subprocess.Popen(
+            [
+                *(
+                    valgrind,
+                    "--tool=callgrind",
+                    "--instr-atstart=no",
+                    f"--callgrind-out-file={out}",
+                ),
+                *(sys.executable, __file__, "--send", str(counted), *extra),
+                *("--database", database_urls[0]),
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        queries, trips = _queries_of_one(database_urls[1], extra)
+        stdout, stderr = run.communicate()
+        windows = [Path(f"{out}.{n}") for n in (1, 2)]
+        if run.returncode != 0 or not all(window.exists() for window in windows):
+            raise SystemExit(f"the counted run failed:\n{stdout}\n{stderr}")
+        before, after = (_totals(window.read_text()) for window in windows)
+    return before, after, queries, trips
+
+
+def _totals(dump: str) -> int:
+    """The instructions a callgrind dump counted (its `totals:` line)."""
+    return int(re.search(r"^totals: (\d+)", dump, re.MULTILINE).group(1))
+
+
+def _callgrind(option: str) -> None:
+    """Tell the callgrind running this process `option` (`--instr=on`, `--dump`)."""
+    subprocess.run(["callgrind_control", option, str(os.getpid())], capture_output=True, check=True)
 
 
 def _queries_of_one(database_url: str, extra=()) -> tuple[list[str], list[str]]:
@@ -221,17 +230,22 @@ class _WsgiTransport:
 
 
 def _child(step, count: int, warmup: int) -> None:
-    """Run `step` (a heartbeat, a delivery cycle) `count` times; with -1, `warmup` times and
-    once more, printing the verb and table of each statement that one sent."""
-    if count >= 0:
-        for _ in range(count):
-            step()
-        return
+    """Run `step` (a heartbeat, a delivery cycle) `warmup` times, then under callgrind's
+    instrumentation no time and `count` times, each window dumped; with -1, once more after
+    the warm-up, printing the verb and table of each statement that one sent."""
     from django.db import connection
     from django.test.utils import CaptureQueriesContext
 
     for _ in range(warmup):
         step()
+    if count >= 0:
+        for steps in (0, count):  # the switching alone, then with the steps: the difference
+            _callgrind("--instr=on")
+            for _ in range(steps):
+                step()
+            _callgrind("--instr=off")
+            _callgrind("--dump")
+        return
     with CaptureQueriesContext(connection) as captured:
         step()
     print("|".join(_statement_name(query["sql"]) for query in captured.captured_queries))

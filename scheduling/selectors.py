@@ -7,7 +7,16 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta
 
-from django.db.models import Case, IntegerField, Prefetch, Q, QuerySet, Value, When
+from django.db.models import (
+    Case,
+    IntegerField,
+    Prefetch,
+    Q,
+    QuerySet,
+    Value,
+    When,
+    prefetch_related_objects,
+)
 from django.utils import timezone
 from django.utils.translation import gettext
 
@@ -186,28 +195,10 @@ def task_detail(*, code: str) -> Task | None:
 def task_detail_of(task: Task) -> Task:
     """task_detail of a task this request holds, having just created or changed it: its row,
     site, requester, robot and recurring request as the request has them (kept up to date by
-    the services that changed them); its stops and history as the service that created it
-    wrote them (task_details_known), else read by two plain queries instead of the prefetch.
-    A nurse's request answers sooner (bench/latency.py)."""
-    known = getattr(task, "_details_known", None)
-    if known is not None:
-        stops, history = known
-    else:
-        stops = list(_STOPS.queryset.filter(task_id=task.pk).order_by("index"))
-        history = list(_HISTORY.queryset.filter(task_id=task.pk).order_by("id"))
-    for row in (*stops, *history):
-        row.task = task  # as a prefetch would: the rows' task is this one, not read again
-    cache = getattr(task, "_prefetched_objects_cache", {})
-    task._prefetched_objects_cache = {**cache, "stops": stops, "history": history}
+    the services that changed them), its stops and history read by two queries (a prefetch,
+    as task_detail's)."""
+    prefetch_related_objects([task], _STOPS, _HISTORY)
     return task
-
-
-def task_details_known(task: Task, *, stops: list[TaskStop], history: list) -> None:
-    """Note on a task just created its stops and history as they were written, every row's
-    relations set (their waypoint, user, robot and event): task_detail_of answers with them
-    instead of reading them back. Only for rows that nothing changed since they were written:
-    an allocation in the same request writes ETAs and history of its own."""
-    task._details_known = (list(stops), list(history))
 
 
 _STOPS = Prefetch("stops", queryset=TaskStop.objects.select_related("waypoint"))

@@ -18,7 +18,7 @@ from scheduling.deadlines import due_at_default
 from scheduling.models import RecurringRequest, Task, TaskStop
 from scheduling.pins import pin_hash, pin_new, pin_seal
 from scheduling.recurrence import next_occurrence, occurrences
-from scheduling.selectors import stations_by_code, task_details_known
+from scheduling.selectors import stations_by_code
 from scheduling.services.allocation import task_allocate_created
 from scheduling.services.history import allocation_enqueue, task_record
 
@@ -139,15 +139,12 @@ def task_create(
     task.save(force_insert=True)
     stops = TaskStop.objects.bulk_create(task_stops_build(task, pickups, dropoffs))
     cause = Cause.SCHEDULE if extra.get("recurring") else Cause.REQUEST
-    entry = task_record(task, old="", at=now, cause=cause, user=requester, note=note)
+    task_record(task, old="", at=now, cause=cause, user=requester, note=note)
     _order_audit(task, requester, cause)
     if due and settings.ALLOCATE_ON_REQUEST:
         task_allocate_created(task=task, stops=stops, now=now)
-        return task  # its stops and history as the allocation left them: read again to answer
-    if due:
+    elif due:
         allocation_enqueue(task)
-    if entry.pk is not None:  # stored, not held for later (task_moves_held)
-        task_details_known(task, stops=stops, history=[entry])  # as written: the answer's
     return task
 
 

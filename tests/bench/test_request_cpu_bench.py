@@ -17,10 +17,10 @@ def test_it_measures_the_cpu_time_of_a_delivery_request():
     assert len(samples) == 2
     assert all(0 < sample < 1000 for sample in samples)
     # The token, the site; BEGIN, the task, its stops, its history entry, its audit entry (the
-    # chain's head locked, the entry, the head moved on), the webhooks to tell, COMMIT. The
-    # stations come from the cached map; the answer's stops and history are those written, not
-    # read back (scheduling.selectors.task_details_known).
-    assert re.search(r"queries per request: (\d+)", output).group(1) == "11"
+    # chain's head locked, the entry, the head moved on), the webhooks to tell, COMMIT; the
+    # answer's stops and history read back (scheduling.selectors.task_detail_of). The stations
+    # come from the cached map.
+    assert re.search(r"queries per request: (\d+)", output).group(1) == "13"
 
 
 def test_it_measures_a_request_allocated_in_the_request():
