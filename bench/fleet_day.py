@@ -1,7 +1,7 @@
 """A simulated hospital day under every allocation policy, on the same request stream.
 
     python bench/fleet_day.py            # 08:00-20:00 on the Eulji demo site, 4 robots (minutes)
-    python bench/fleet_day.py --quick    # 8 minutes of requests, 2 robots: what CI runs
+    python bench/fleet_day.py --quick    # 4 minutes of requests, 2 robots: what CI runs
 
 The source paper's central claim (section 1): a robot that can take more tasks while it is out
 (online multi-task allocation, on-MTA) delivers better than one that takes a new task only when
@@ -63,7 +63,7 @@ class Settings:
 
 
 FULL = Settings(start=8, minutes=12 * 60, robots=4, drain_hours=4, scale=1.0)
-QUICK = Settings(start=8, minutes=8, robots=2, drain_hours=1, scale=2.0)
+QUICK = Settings(start=8, minutes=4, robots=2, drain_hours=1, scale=2.0)
 HOUSEKEEPING_EVERY = 5  # simulated seconds between the presence, lease and ack-timeout sweeps
 
 
@@ -95,7 +95,7 @@ class Result:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
-        "--quick", action="store_true", help="8 minutes of requests, 2 robots: for CI"
+        "--quick", action="store_true", help="4 minutes of requests, 2 robots: for CI"
     )
     parser.add_argument("--seed", type=int, default=2026)
     parser.add_argument("--robots", type=int, help="1-4 (default 4; quick: 2)")

@@ -79,7 +79,7 @@ FULL_ROWS = [
     Row(1, 50),
     Row(1, 100),
 ]
-QUICK_ROWS = [Row(1, 1), Row(3, 3), Row(1, 5)]
+QUICK_ROWS = [Row(1, 1), Row(3, 3)]
 
 
 @dataclass
