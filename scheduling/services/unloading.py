@@ -70,20 +70,20 @@ def _stop_overdue(robot: Robot, stop: TaskStop, now: datetime) -> bool:
         return False
     station = waypoint_by_id(robot.site, stop.waypoint_id)
     place = station.label if station else "the drop-off"
-    words = (
-        f"{robot.code} has waited {_duration(waited)} at {place} "
-        f"with {task.contents} {task.code}: nobody has unloaded it"
-    )
-    message = Said(
+    words = Said(
         gettext_noop(
             "%(robot)s has waited %(waited)s at %(place)s with %(contents)s %(code)s: nobody has "
-            "unloaded it. Call the station, or cancel it to bring the items back."
+            "unloaded it"
         ),
         robot=robot.code,
         waited=_duration(waited),
         place=place,
         contents=task.contents,
         code=task.code,
+    )
+    message = Said(
+        gettext_noop("%(what)s. Call the station, or cancel it to bring the items back."),
+        what=words,
     )
     alert_raise(
         site_id=task.site_id,
@@ -148,31 +148,32 @@ def task_move_on(*, robot_id: int, stop_id: int, waited: timedelta, now: datetim
     return_stop_add(task=task, stops=stops, waypoint=back_to, now=now)
     entry = _custody_moved_on(task, robot, stop, now)
     where = _label(site, stop.waypoint_id, "the drop-off")
-    locked = f", locked in compartment {entry.compartment}" if entry.compartment else ""
-    words = (
-        f"Nobody unloaded it at {where} in {_duration(waited)}: {robot.code} moved on, "
-        f"taking it to {back_to.label}{locked}"
-    )
-    task.return_trip, task.unattended_at = True, now
-    why = {"cause": Cause.UNLOADING, "robot": robot, "note": words}
-    task_move(task, TaskStatus.PICKED_UP, at=now, fields=["return_trip", "unattended_at"], **why)
-    alerts_close(key=_alert_key(stop), at=now)  # this alert says what became of it
-    locked_in = (
+    locked = (
         Said(gettext_noop(", locked in compartment %(compartment)s"), compartment=entry.compartment)
         if entry.compartment
         else ""
     )
-    message = Said(
+    words = Said(
         gettext_noop(
             "Nobody unloaded it at %(place)s in %(waited)s: %(robot)s moved on, taking it to "
-            "%(back)s%(locked)s (%(code)s, %(contents)s). It is not delivered: call the receiver "
-            "to order it again."
+            "%(back)s%(locked)s"
         ),
         place=where,
         waited=_duration(waited),
         robot=robot.code,
         back=back_to.label,
-        locked=locked_in,
+        locked=locked,
+    )
+    task.return_trip, task.unattended_at = True, now
+    why = {"cause": Cause.UNLOADING, "robot": robot, "note": words}
+    task_move(task, TaskStatus.PICKED_UP, at=now, fields=["return_trip", "unattended_at"], **why)
+    alerts_close(key=_alert_key(stop), at=now)  # this alert says what became of it
+    message = Said(
+        gettext_noop(
+            "%(what)s (%(code)s, %(contents)s). It is not delivered: call the receiver to order "
+            "it again."
+        ),
+        what=words,
         code=task.code,
         contents=task.contents,
     )
