@@ -1,19 +1,15 @@
 """The heartbeat's two hottest reads in plain SQL: its robot found by its token and locked, and
 the robot's board.
 
-Every heartbeat runs both. Built by the ORM they are most of the heartbeat's own work in the web
-process: Django compiles each queryset's SQL again on every call (every column of the robot and
-its site named and quoted, the lock clause, the joins), and the result is the same text every
-time (bench/heartbeat_instructions.py counts the difference). Here the SQL is written once from
-the models' fields, so it follows the models, and the rows become model instances through
-Django's public model-loading API (Model.from_db, Field.from_db_value). On PostgreSQL only,
-where the server also prepares them (settings.DATABASE_PREPARED_STATEMENTS); other databases
-use the ORM's querysets, which give the same instances (tests/boards/test_heartbeat_sql.py).
+Every heartbeat runs both: written once from the models' fields (core/plainsql.py says why).
+On PostgreSQL only, for its lock clause; other databases use the ORM's querysets, which give
+the same instances (tests/boards/test_heartbeat_sql.py).
 """
 
 from django.db import connection
 
 from boards.models import BoardMessage
+from core.plainsql import columns, loaded
 from core.tokens import token_hash
 from robots.models import Robot, Site
 from robots.services import robot_authenticate
@@ -29,8 +25,8 @@ def robot_by_token_locked(token: str) -> Robot | None:
         row = cursor.fetchone()
     if row is None:
         return None
-    robot = _loaded(Robot, row[: len(_ROBOT_FIELDS)])
-    robot.site = _loaded(Site, row[len(_ROBOT_FIELDS) :])
+    robot = loaded(Robot, row[: len(_ROBOT_FIELDS)])
+    robot.site = loaded(Site, row[len(_ROBOT_FIELDS) :])
     return robot
 
 
@@ -40,35 +36,21 @@ def board_pending_of(robot_id: int) -> list[BoardMessage]:
         return list(BoardMessage.objects.pending().filter(robot_id=robot_id).order_by("id"))
     with connection.cursor() as cursor:
         cursor.execute(_PENDING, [robot_id])
-        return [_loaded(BoardMessage, row) for row in cursor.fetchall()]
-
-
-def _loaded(model, values):
-    """An instance of `model` from its concrete fields' column values, as the ORM loads one."""
-    fields = model._meta.concrete_fields
-    converted = [
-        field.from_db_value(value, None, connection) if hasattr(field, "from_db_value") else value
-        for field, value in zip(fields, values, strict=True)
-    ]
-    return model.from_db(connection.alias, [field.attname for field in fields], converted)
-
-
-def _columns(model, alias: str) -> str:
-    return ", ".join(f'{alias}."{field.column}"' for field in model._meta.concrete_fields)
+        return [loaded(BoardMessage, row) for row in cursor.fetchall()]
 
 
 _ROBOT_FIELDS = Robot._meta.concrete_fields
 # Only the robot's row is locked (OF r), not its site's, and FOR NO KEY UPDATE lets rows that
 # refer to the robot be inserted meanwhile: as robot_lock does.
 _ROBOT_BY_TOKEN_LOCKED = (
-    f"SELECT {_columns(Robot, 'r')}, {_columns(Site, 's')} "
+    f"SELECT {columns(Robot, 'r')}, {columns(Site, 's')} "
     f'FROM "{Robot._meta.db_table}" r JOIN "{Site._meta.db_table}" s '
     f'ON s."{Site._meta.pk.column}" = r."{Robot._meta.get_field("site").column}" '
     f'WHERE r."{Robot._meta.get_field("token_hash").column}" = %s '
     "LIMIT 1 FOR NO KEY UPDATE OF r"
 )
 _PENDING = (
-    f'SELECT {_columns(BoardMessage, "m")} FROM "{BoardMessage._meta.db_table}" m '
+    f'SELECT {columns(BoardMessage, "m")} FROM "{BoardMessage._meta.db_table}" m '
     f'WHERE m."{BoardMessage._meta.get_field("robot").column}" = %s '
     f'AND m."{BoardMessage._meta.get_field("acked_at").column}" IS NULL '
     f'AND m."{BoardMessage._meta.get_field("withdrawn_at").column}" IS NULL '

@@ -14,6 +14,7 @@ from django.db.models import Q, QuerySet
 from django.utils import timezone
 
 from core import changes
+from core.plainsql import row_update
 from core.tokens import token_hash, token_new
 from robots.badges import badge_hash
 from robots.choices import Presence
@@ -104,19 +105,22 @@ def robot_heartbeat_record(
     fresh = _heartbeat_is_newest(robot, boot_id, seq, now)
     shown, last_seen = robot_visible(robot), robot.last_seen_at
     doing = robot_activity(robot)
-    update_fields = [*Robot.PRESENCE_FIELDS, "heartbeat_interval_told"]
     if fresh:
         robot.apply_state(state, now)
         robot.boot_id, robot.seq = boot_id, seq
-        update_fields += [*Robot.STATE_FIELDS, "boot_id", "seq"]
     previous = robot.mark_seen(now, interval, waited)
-    robot.save(update_fields=update_fields)
+    # Every heartbeat of every robot writes these: plain SQL, compiled once (core/plainsql.py).
+    row_update(robot, _HEARTBEAT_STATE_FIELDS if fresh else _HEARTBEAT_FIELDS)
     if previous is not None:
         _presence_record(robot, old=previous, new=Presence.ONLINE, at=now, cause="heartbeat")
     _activity_record(robot, previous=doing, at=now)
     if robot_visible(robot) != shown or last_seen_refresh_due(last_seen, now):
         robot_publish(robot=robot)
     return fresh
+
+
+_HEARTBEAT_FIELDS = (*Robot.PRESENCE_FIELDS, "heartbeat_interval_told")
+_HEARTBEAT_STATE_FIELDS = (*_HEARTBEAT_FIELDS, *Robot.STATE_FIELDS, "boot_id", "seq")
 
 
 def robot_publish(*, robot: Robot) -> None:

@@ -11,6 +11,7 @@ from django.utils.translation import gettext_noop
 
 from audit.choices import Kind
 from audit.services import entry_record
+from core import memo
 from core.said import Said
 from robots.models import Site, Waypoint
 from scheduling.choices import Cause, Priority, StopAction, TaskStatus
@@ -108,6 +109,7 @@ def _recurring_create(site, requester, what, pickups, dropoffs, repeat, starts_a
     )
 
 
+@memo.scope()  # its history and its allocation both ask for the webhooks (core.memo)
 def task_create(
     *,
     site: Site,
