@@ -13,6 +13,7 @@ class MessageType(models.TextChoices):
     RESOURCE_OUT_OF_SERVICE = "resource_out_of_service", _("Resource out of service")
     RESOURCE_IN_SERVICE = "resource_in_service", _("Resource back in service")
     ELEVATOR_AT_FLOOR = "elevator_at_floor", _("Elevator stopped at a floor")
+    ELEVATOR_EXIT = "elevator_exit", _("Get out of the elevator at the next floor")
 
 
 class EventType(models.TextChoices):

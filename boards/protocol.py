@@ -120,3 +120,18 @@ def elevator_at_floor_body(*, resource: str, lease: str, floor: str, doors: str)
     """`elevator_at_floor` (an addition): the car of the robot's lease has stopped at `floor`
     with its doors `doors` ("open"): what a robot in the cabin cannot see for itself."""
     return {"resource": resource, "lease": lease, "floor": floor, "doors": doors}
+
+
+def elevator_exit_body(
+    *, resource: str, lease: str, floor: str | None, waypoint: str | None, reason: str
+) -> dict:
+    """`elevator_exit` (an addition): get out of the car of `lease` where it stops next,
+    `floor` (its lobby `waypoint`) when the server drives the lift, and wait there for what
+    the server says next; `reason`: words for people."""
+    body = {"resource": resource, "lease": lease}
+    if floor:
+        body["floor"] = floor
+    if waypoint:
+        body["waypoint"] = waypoint
+    body["reason"] = reason
+    return body

@@ -365,6 +365,18 @@ class ElevatorAtFloorMessageSerializer(serializers.Serializer):
     doors = serializers.ChoiceField(choices=["open"])
 
 
+class ElevatorExitMessageSerializer(serializers.Serializer):
+    id = serializers.CharField()
+    type = serializers.ChoiceField(choices=[MessageType.ELEVATOR_EXIT])
+    resource = serializers.CharField()
+    lease = serializers.CharField()
+    floor = serializers.CharField(
+        required=False, help_text="where the car stops next; left out where no lift is driven"
+    )
+    waypoint = serializers.CharField(required=False, help_text="the lift's lobby on `floor`")
+    reason = serializers.CharField(allow_blank=True)
+
+
 BoardMessageSerializer = PolymorphicProxySerializer(
     component_name="BoardMessage",
     serializers={
@@ -375,6 +387,7 @@ BoardMessageSerializer = PolymorphicProxySerializer(
         MessageType.RESOURCE_OUT_OF_SERVICE.value: ResourceOutOfServiceMessageSerializer,
         MessageType.RESOURCE_IN_SERVICE.value: ResourceInServiceMessageSerializer,
         MessageType.ELEVATOR_AT_FLOOR.value: ElevatorAtFloorMessageSerializer,
+        MessageType.ELEVATOR_EXIT.value: ElevatorExitMessageSerializer,
     },
     resource_type_field_name="type",
     many=True,

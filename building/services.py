@@ -24,7 +24,8 @@ from django.utils import timezone
 
 from boards import protocol
 from boards.choices import MessageType
-from boards.services import board_post
+from boards.models import BoardMessage
+from boards.services import board_post, board_withdraw
 from building.adapters.sim import SimState, sim_advance
 from building.choices import AdapterKind, DoorState, Motion
 from building.hooks import fire_panel_changed
@@ -35,6 +36,7 @@ from resources.choices import HOLDING_LEASE_STATES, LeaseState
 from resources.leases import resource_lock
 from resources.models import Lease
 from robots.choices import ResourceKind
+from robots.mapcache import site_map
 from robots.models import Floor, Resource, Site
 
 DRIVEN_KINDS = (ResourceKind.ELEVATOR, ResourceKind.DOOR)
@@ -209,6 +211,114 @@ def device_send_car(*, resource: Resource, floor: Floor, now: datetime | None = 
     device = _device(resource)
     _request(device, session=device.session, floor_id=floor.pk, door=DoorState.OPEN, now=now)
     return device
+
+
+# --- A fire alarm: robots out of the cars (scheduling.hooks.fire_alarm_changed) ---------------
+
+
+@transaction.atomic
+def device_stop_at_next_floor(*, resource: Resource, now: datetime | None = None) -> Floor | None:
+    """Stop the lift's car at the next floor it serves in its direction of travel (the floor
+    it stands at if it is not moving), doors to open there; the lease's session stays, so its
+    robot is told of the stop. Returns that floor; None where the server drives no lift or
+    does not know where the car is."""
+    if not resource.is_elevator or settings.BUILDING_ADAPTER == "none":
+        return None
+    now = now or timezone.now()
+    resource = resource_lock(resource.pk)
+    device = _device(resource)
+    floor = _next_floor(device)
+    if floor is not None:
+        _request(device, session=device.session, floor_id=floor.pk, door=DoorState.OPEN, now=now)
+    return floor
+
+
+def _next_floor(device: Device) -> Floor | None:
+    here = Floor.objects.filter(pk=device.current_floor_id).first()
+    if here is None:
+        return None
+    served = Floor.objects.filter(waypoints__waiting_for=device.resource).distinct()
+    if device.motion == Motion.UP:
+        ahead = served.filter(level__gt=here.level).order_by("level")
+    elif device.motion == Motion.DOWN:
+        ahead = served.filter(level__lt=here.level).order_by("-level")
+    else:  # standing (or not saying): the doors open where it is
+        return here
+    return ahead.first() or here
+
+
+@transaction.atomic
+def elevator_riders_let_out(*, site: Site, reason: str, now: datetime | None = None) -> int:
+    """Every car of the site with a robot inside stops at its next floor, and each robot there
+    is told to get out and wait (`elevator_exit`): the fire service takes the cars. Its lease
+    stays until it reports itself out. Returns how many robots were told."""
+    now = now or timezone.now()
+    told = 0
+    for resource in _elevators(site):
+        riders = list(_riders(resource))
+        if not riders:
+            continue
+        floor = device_stop_at_next_floor(resource=resource, now=now)
+        for lease in riders:
+            _exit_post(lease, resource, floor, reason)
+            told += 1
+    return told
+
+
+@transaction.atomic
+def elevator_riders_carry_on(*, site: Site, now: datetime | None = None) -> int:
+    """The all-clear: a car still carrying a robot (one that did not get out) takes it on to
+    its destination, and unheard `elevator_exit` messages are withdrawn. Returns how many."""
+    now = now or timezone.now()
+    carried = 0
+    for resource in _elevators(site):
+        for lease in _riders(resource):
+            board_withdraw(
+                messages=BoardMessage.objects.pending().filter(key=_exit_key(lease)),
+                reason="fire alarm over",
+                now=now,
+            )
+            if settings.BUILDING_ADAPTER != "none":
+                device = _device(resource)
+                floor_id = lease.to_floor_id or device.requested_floor_id
+                door = DoorState.OPEN  # at the destination, for the robot to get out
+                _request(device, session=lease.public_id, floor_id=floor_id, door=door, now=now)
+            carried += 1
+    return carried
+
+
+def _elevators(site: Site):
+    pks = Resource.objects.filter(site=site, kind=ResourceKind.ELEVATOR).order_by("pk")
+    return (resource_lock(pk) for pk in pks.values_list("pk", flat=True))
+
+
+def _riders(resource: Resource):
+    entered = Lease.objects.filter(resource=resource, state=LeaseState.ENTERED)
+    return entered.select_related("robot").order_by("pk")
+
+
+def _exit_post(lease: Lease, resource: Resource, floor: Floor | None, reason: str) -> None:
+    waypoint = None
+    if floor is not None:
+        waypoint = site_map(resource.site).elevator_stops.get(resource.code, {}).get(floor.code)
+    body = protocol.elevator_exit_body(
+        resource=resource.code,
+        lease=lease.public_id,
+        floor=floor.code if floor else None,
+        waypoint=waypoint,
+        reason=reason,
+    )
+    board_post(
+        robot=lease.robot,
+        type=MessageType.ELEVATOR_EXIT,
+        body=body,
+        key=_exit_key(lease),
+        supersede=True,
+    )
+
+
+def _exit_key(lease: Lease) -> str:
+    return f"exit:{lease.pk}"
 
 
 # --- The simulation and the deadlines (Celery beat: building.tasks.building_sweep) ------------

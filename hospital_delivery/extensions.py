@@ -29,6 +29,7 @@ from resources.hooks import availability_changed, lease_changed
 from robots.hooks import presence_changed, token_issued
 from robots.models import SiteMembership
 from scheduling import receivers as scheduling
+from scheduling.hooks import fire_alarm_changed
 from ui.live import publish
 from webhooks import receivers as webhooks
 
@@ -45,6 +46,9 @@ def connect() -> None:
     lease_changed.connect(building.on_lease_changed)
     # The building's fire panel starts or ends the site's fire alarm.
     fire_panel_changed.connect(scheduling.on_fire_panel_changed)
+    # A fire alarm stops the lift cars with a robot inside at their next floor and lets the
+    # robots out; at the all-clear a robot still inside rides on to its destination.
+    fire_alarm_changed.connect(building.on_fire_alarm_changed)
     # A resource out of or back in service: routes are planned again (after commit).
     availability_changed.connect(scheduling.on_availability_changed)
     # A robot's new token closes the push sockets opened with its old one, and is audited.

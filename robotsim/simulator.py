@@ -23,7 +23,11 @@ Its behaviour, as in the source paper (sections 2.2, 3.2 and 4.3):
   (robotsim.client.pin_check) and after `max_attempts` wrong ones keeps it locked and reports
   `compartment_locked`;
 * the battery drains while it moves and charges while it stands at its dock with nothing to do;
-* `action` messages: `pause` (stops at the next waypoint), `resume`, `return_to_dock`.
+* `action` messages: `pause` (stops at the next waypoint), `resume`, `return_to_dock`;
+* `elevator_exit` (a fire alarm): it gets out of the car at the lobby the message names (or
+  the car's next floor) and carries on from there, waiting for what the server says next. It
+  hears it in the cabin only if the cabins have network (`Behaviour.cabin_network`), else
+  before the doors close or never (then it rides on, as a v1 robot would).
 
 Time: everything here runs on a simulated clock (`clock.now()`, seconds); a RobotLoop sends
 heartbeats on the real one. The robot's behaviour is a generator ("program") that yields
@@ -117,6 +121,10 @@ class Behaviour:
     # drains per metre instead of per second, and each elevator ride drains too.
     drain_per_metre: float | None = None
     drain_per_ride: float = 0.0
+    # The lift cabins have network (a repeater in the shaft): the robot hears its board while
+    # riding, so an `elevator_exit` reaches it there. Without, it is silent from the doors
+    # closing to its destination, as in the source paper's trial.
+    cabin_network: bool = False
 
     @classmethod
     def for_site(cls, site: dict, **options) -> Behaviour:
@@ -220,6 +228,8 @@ class SimRobot:
         self.urgent = False  # something new to tell: heartbeat soon
         self._edges = edge_index(site_map)
         self._grants: dict[str, dict] = {}  # resource -> newest grant received
+        self._inside: str | None = None  # the elevator it rides
+        self._exit: dict | None = None  # an elevator_exit for that elevator
         self._changes = 0  # plans and actions received: waits re-check their reason
         self._motion: _Motion | None = None
         self._mode = "charging"  # battery accounting: moving, riding, idle or charging
@@ -232,6 +242,7 @@ class SimRobot:
         client.on("plan", self._on_plan)
         client.on("resource_grant", self._on_grant)
         client.on("action", self._on_action)
+        client.on("elevator_exit", self._on_exit)
 
     # --- Driving the program ---------------------------------------------------------------
 
@@ -264,7 +275,8 @@ class SimRobot:
     def connected(self) -> bool:
         """The network is there: not in an elevator cabin, not in a dead zone (from a dead-zone
         waypoint until the next waypoint: an access-point handover)."""
-        return not self.riding and self.waypoint not in self.dead_zones
+        in_cabin = self.riding and not self.behaviour.cabin_network
+        return not in_cabin and self.waypoint not in self.dead_zones
 
     def report(self) -> None:
         """Put the robot's current state into its client, for the next heartbeat."""
@@ -297,6 +309,12 @@ class SimRobot:
 
     def _on_grant(self, grant: dict) -> None:
         self._grants[grant["resource"]] = grant
+
+    def _on_exit(self, message: dict) -> None:
+        """Get out of the car at its next stop (a fire alarm); nothing if already out."""
+        if message.get("resource") == self._inside:
+            self._exit = message
+            logger.info("%s: told to get out of %s", self.code, self._inside)
 
     def _on_action(self, message: dict) -> None:
         action = message["action"]
@@ -420,23 +438,58 @@ class SimRobot:
         if grant is None:
             return
         entered = self._event("resource_entered", resource=hop.resource)
+        self._inside, self._exit = hop.resource, None
         self._set(status="in_resource", mode="idle")
-        yield Until(lambda: self.client.delivered(entered))  # the cabin has no network
+        yield Until(lambda: self.client.delivered(entered))  # the cabin may have no network
         elevator = self.map.resources[hop.resource]
-        floors = abs(self._level(hop.target) - self._level(self.waypoint))
-        seconds = elevator.overhead_seconds + elevator.seconds_per_floor * floors
         logger.info("%s: rides %s to %s", self.code, hop.resource, hop.to_floor)
         self.riding = True
         self._set(mode="riding")
         self.battery = max(self.battery - self.behaviour.drain_per_ride, 0.0)
         self.lowest_battery = min(self.lowest_battery, self.battery)
-        yield Sleep(seconds)
+        out, seconds = yield from self._ride_to(elevator, hop.target)
         self.riding = False
-        self.waypoint = hop.target
+        self.waypoint = out
         self.stats.riding += seconds
         self.stats.rides += 1
+        if out != hop.target:
+            logger.info("%s: got out of %s at %s", self.code, hop.resource, out)
+        self._inside, self._exit = None, None
         self._event("resource_released", resource=hop.resource)
         self._set(status="moving", mode="idle")
+
+    def _ride_to(self, elevator, target: str) -> Generator[Sleep, None, tuple[str, float]]:
+        """Ride floor by floor towards `target`, or to where an `elevator_exit` heard on the way
+        says; (the lobby got out at, seconds ridden)."""
+        level, ridden, out = self._level(self.waypoint), 0.0, None
+        while True:
+            if out is None:  # decided once: the car's next floor stays the one it was
+                out = self._exit_lobby(elevator.code, level, target, moving=ridden > 0)
+            goal = out or target
+            if self._level(goal) == level:
+                return goal, ridden
+            if not ridden:  # the doors close and the car sets off
+                ridden = elevator.overhead_seconds
+                yield Sleep(elevator.overhead_seconds)
+                continue
+            yield Sleep(elevator.seconds_per_floor)
+            ridden += elevator.seconds_per_floor
+            level += 1 if self._level(goal) > level else -1
+
+    def _exit_lobby(self, elevator: str, level: int, target: str, *, moving: bool) -> str | None:
+        """Where an `elevator_exit` says to get out: its waypoint, or without one (the server
+        does not drive the lift) the car's next floor towards `target` (this one, if the car
+        has not set off)."""
+        if self._exit is None:
+            return None
+        if self._exit.get("waypoint") in self.map.waypoints:
+            return self._exit["waypoint"]
+        stops = self.map.elevator_stops.get(elevator, {})
+        step = 1 if self._level(target) > level else -1
+        levels = sorted({self._level(lobby) for lobby in stops.values()}, reverse=step < 0)
+        ahead = [n for n in levels if (n - level) * step > 0] if moving else [level]
+        wanted = ahead[0] if ahead else level
+        return next(lobby for lobby in stops.values() if self._level(lobby) == wanted)
 
     def _acquire(
         self, resource: str, to_floor: str | None

@@ -15,12 +15,16 @@ While it is in force at a site:
   online, while the alarm lasts;
 * no elevator of the site is granted (resources.leases._free reads Site.fire_alarm_since):
   the fire service recalls the cars. A grant not yet used is taken back (the robot is queued
-  again, first in line); robots already inside keep their lease until they leave;
+  again, first in line); a car with a robot inside stops at its next floor and the robot is
+  told to get out there (`elevator_exit`, through scheduling.hooks.fire_alarm_changed: the
+  building drives the cars). It keeps its lease until it reports itself out, and is then
+  dealt with as any robot out of a lift (emergency_heartbeat_check);
 * nothing is planned (the allocator holds every due task with a reason the pages show); new
   deliveries are still accepted and wait, in their order;
 * every page of the site shows it, as an alert no operator can acknowledge away.
 
 The all-clear resumes the robots the alarm paused (not those an operator paused meanwhile),
+sends a car still carrying a robot on to that robot's destination,
 posts the robots it sent to refuges their plans without the refuge, grants the elevators'
 queues in order, and allocates the held deliveries in their order, with new ETAs. Nothing is
 cancelled or failed by the alarm, so nothing is lost or done twice.
@@ -57,6 +61,7 @@ from robots.models import AlertKind, Emergency, Resource, Robot, Site
 from robots.selectors import emergency_active, robot_position
 from robots.services import robot_lock, robot_publish
 from scheduling.choices import ROUTE_STATUSES, Cause, OperatorActionKind
+from scheduling.hooks import fire_alarm_changed
 from scheduling.models import Task
 from scheduling.services.allocation import allocation_lock_take, site_allocate_due
 from scheduling.services.history import task_record
@@ -121,6 +126,7 @@ def emergency_start(
     emergency.save(update_fields=["stopped_robots", "refuges"])
     for resource in Resource.objects.filter(site=site, kind=ResourceKind.ELEVATOR).order_by("pk"):
         lease_grants_take_back(resource=resource_lock(resource.pk))
+    fire_alarm_changed(site=site, active=True, reason=_exit_reason(emergency), now=now)
     _audit(emergency, "fire_alarm", by=by, via=via)
     alert_raise(
         site_id=site.pk,
@@ -152,6 +158,7 @@ def emergency_end(*, site: Site, via: str, by=None, now: datetime | None = None)
     _audit(emergency, "all_clear", by=by, via=via)
     alerts_close(key=_alert_key(site), by=by, at=now)
     allocated = site_allocate_due(site_id=site.pk, now=now)
+    fire_alarm_changed(site=site, active=False, reason="", now=now)
     for resource in Resource.objects.filter(site=site, kind=ResourceKind.ELEVATOR).order_by("pk"):
         resource_serve(resource=resource_lock(resource.pk), now=now)
     return EmergencyEnded(emergency=emergency, resumed=resumed, allocated=allocated)
@@ -311,6 +318,11 @@ def _tell_tasks(robot: Robot, note: str, by, now: datetime) -> None:
         task_record(
             task, old=task.status, at=now, cause=Cause.USER, robot=robot, user=by, note=note
         )
+
+
+def _exit_reason(emergency: Emergency) -> str:
+    """What a robot told to leave its lift shows (protocol words, not translated)."""
+    return f"fire alarm: {emergency.reason}" if emergency.reason else "fire alarm"
 
 
 def _alert_key(site: Site) -> str:

@@ -13,6 +13,7 @@ from django.test import override_settings
 from boards.choices import MessageType
 from boards.models import BoardMessage
 from building.models import Device
+from building.services import device_stop_at_next_floor
 from robots.models import Floor, Resource
 from tests import factories
 from tests.factories import lease_acquire, lease_enter
@@ -97,6 +98,35 @@ def test_it_publishes_lift_requests_and_reads_lift_states(site, prefix, controll
     bridge.publish_pending()
     ride = next_request(controller, requests)
     assert (ride["destination_floor"], ride["session_id"]) == ("3F", lease.public_id)
+
+
+@override_settings(BUILDING_ADAPTER="mqtt")
+def test_a_car_is_stopped_at_its_next_floor_by_an_ordinary_request(
+    site, prefix, controller, bridge
+):
+    robot = factories.robot_create(site, "R1")
+    robot.floor = Floor.objects.get(site=site, code="3F")
+    robot.save(update_fields=["floor"])
+    elevator = Resource.objects.get(site=site, code="ELEV")
+    lease_acquire(robot=robot, resource=elevator, request_id="q-1", to_floor="1F")
+    lease = lease_enter(robot=robot, resource=elevator)
+    bridge.publish_pending()
+    requests = f"{prefix}/tiny/lift_requests/ELEV"
+    assert next_request(controller, requests)["destination_floor"] == "1F"
+    going_down = lift_state(
+        current_floor="3F", destination_floor="1F", door_state=0, motion_state=2
+    )
+    states = f"{prefix}/tiny/lift_states/ELEV"
+    publish_state(
+        controller, bridge, states, going_down | {"session_id": lease.public_id}, "applied"
+    )
+
+    assert device_stop_at_next_floor(resource=elevator).code == "2F"
+
+    assert bridge.publish_pending() == 1
+    stop = next_request(controller, requests)
+    assert (stop["session_id"], stop["request_type"]) == (lease.public_id, 1)
+    assert (stop["destination_floor"], stop["door_state"]) == ("2F", 2)
 
 
 @override_settings(BUILDING_ADAPTER="mqtt")

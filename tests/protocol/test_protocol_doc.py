@@ -65,7 +65,7 @@ from robots.sitefile import site_file_read, site_load
 from robotsim.client import badge_check, pin_check
 from scheduling.models import Task, TaskStop
 from scheduling.pins import ALGORITHM, ITERATIONS, PinHash, pin_matches
-from scheduling.services import robot_action
+from scheduling.services import emergency_start, robot_action
 
 # -------------------------------------------------------------------------------------------------
 
@@ -621,7 +621,8 @@ def fields_by_kind(messages: list[dict]) -> dict[str, set[str]]:
 def server_messages(client, eulji, tokens, staff) -> list[dict]:
     """Board messages of every type, as the server really sends them: R3 is given a delivery
     across floors, does it and is sent to its dock; takes the elevator, for which R4 queues;
-    and is paused by an operator; R4, low on battery, is sent to charge."""
+    and is paused by an operator; R4, low on battery, is sent to charge; R3 gets into the car
+    and a fire alarm tells it to get out."""
     received: list[dict] = []
     seqs: dict[str, int] = {}
 
@@ -682,6 +683,16 @@ def server_messages(client, eulji, tokens, staff) -> list[dict]:
     robot_action(robot=Robot.objects.get(code="R3"), action="pause", by=staff)
     beat("R3", "2F-ELEV-A-WAIT", status="waiting_resource")
     beat("R4", "15F-ELEV-A-WAIT", battery=0.1)  # low, nothing on board: sent to charge
+    # R3 gets into the car; a fire alarm starts: the car opens where it is and R3 is told
+    # to get out there.
+    beat(
+        "R3",
+        "2F-ELEV-A-WAIT",
+        status="in_resource",
+        events=[event(4, "resource_entered", resource="ELEV-A")],
+    )
+    emergency_start(site=eulji, floors=["2F"], reason="drill", via="api", by=staff)
+    beat("R3", "2F-ELEV-A-WAIT", status="in_resource")
     return received
 
 

@@ -280,3 +280,39 @@ def test_a_fire_alarm_sends_it_to_a_refuge_and_after_the_all_clear_it_delivers_o
     assert task.code == code
     notes = list(task.history.values_list("note", flat=True))
     assert any("waits at refuge point 1F-REFUGE" in note for note in notes)
+
+
+def test_told_in_the_cabin_to_get_out_it_leaves_at_the_next_floor_and_waits(
+    api, operator, settings
+):
+    from scheduling.services import emergency_end, emergency_start
+
+    # Lifts the server does not drive: the robot gets out at the car's next floor, 2F, where
+    # a refuge point waits for it. Its cabin has network, so it hears the message on the way.
+    settings.BUILDING_ADAPTER = "none"
+    data = factories.tiny_site_with_refuge()
+    second = data["floors"][1]
+    second["waypoints"].append({"code": "2F-REFUGE", "x": 10, "y": 0, "kind": "refuge"})
+    second["edges"].append(["2F-ELEV-WAIT", "2F-REFUGE"])
+    site = factories.site_create(**data)
+    world = World(site, data)
+    robot = world.robot("R1", "1F-DOCK-1", behaviour=replace(BEHAVIOUR, cabin_network=True))
+    world.run_until(lambda: robot.client.seq > 1)
+    code = order(api, ["1F-PHARM"], ["3F-WARD"])
+    world.run_until(lambda: robot.riding, limit=600)
+
+    emergency_start(site=site, floors=["2F"], reason="drill", via="operator", by=operator)
+    world.run_until(lambda: robot.waypoint == "2F-ELEV-WAIT", limit=60)
+    world.run_until(lambda: robot.waypoint == "2F-REFUGE", limit=60)
+    assert robot.stats.rides == 1
+    leases = Lease.objects.filter(robot__code="R1", resource__code="ELEV").order_by("pk")
+    assert leases[0].state == "released"  # the ride, ended at 2F
+    assert not leases.filter(state__in=["queued", "granted", "entered"]).exists()
+    with pytest.raises(AssertionError):  # it waits there, its delivery on board
+        world.run_until(lambda: robot.waypoint != "2F-REFUGE", limit=60)
+    assert robot.on_board
+
+    emergency_end(site=site, via="operator", by=operator)
+    world.run_until(completed(code))
+    assert Task.objects.get().code == code
+    assert robot.stats.rides == 2

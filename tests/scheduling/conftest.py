@@ -130,12 +130,14 @@ class Beater:
         self.client = client or Client()
         self.seq = 0
 
-    def post(self, *, events=(), acks=(), **state):
+    def post(self, *, events=(), acks=(), requests=(), **state):
         self.seq += 1
         state.setdefault("waypoint", self.robot.dock.code)
         # The tiny site's waypoint codes start with their floor's ("3F-WARD" is on 3F).
         state.setdefault("floor", (state["waypoint"] or "1F").split("-")[0])
-        body = factories.heartbeat_body(self.seq, state=state, events=list(events), acks=acks)
+        body = factories.heartbeat_body(
+            self.seq, state=state, events=list(events), acks=acks, requests=list(requests)
+        )
         return self.client.post(
             f"/api/v1/robots/{self.robot.code}/heartbeat",
             body,

@@ -3,18 +3,23 @@ inside finishes its ride, a grant not used yet is taken back, nobody is granted 
 it is released, and the robots waiting are told it is out of service to them; one confirmed
 action on the fleet page or one API call each way, and every page shows it."""
 
+import copy
+
 import pytest
 from django.test import Client
 
 from boards.models import BoardMessage
 from hospital_delivery.models import ApiToken
 from resources.choices import LeaseState
-from robots.models import Alert, Resource
+from resources.models import Lease
+from robots.models import Alert, Resource, Robot
+from scheduling.choices import TaskStatus
 from scheduling.models import OperatorAction
-from scheduling.services import resource_operator_set_priority
+from scheduling.services import resource_operator_set_priority, site_reroute
 from tests import factories
 from tests.factories import lease_acquire, lease_enter, lease_release
-from tests.scheduling.conftest import robot_ready
+from tests.scheduling.conftest import request, robot_ready, status
+from tests.scheduling.test_out_of_service import TWO_LIFTS, vias
 
 URL = "/api/v1/sites/tiny/resources/ELEV/priority"
 
@@ -141,3 +146,65 @@ def test_an_operator_holds_it_on_the_fleet_page_and_every_page_shows_it(site, op
 
     page.post("/resources/tiny/ELEV/priority", {"on": "false"})
     assert "ELEV is held for an emergency team" not in ward.get("/").content.decode()
+
+
+def two_lifts_and_a_top_floor() -> dict:
+    """The two-lift site, with a 4F that only ELEV serves."""
+    data = copy.deepcopy(TWO_LIFTS)
+    data["site"] = "twolifts4"
+    top = data["floors"][3]
+    top["waypoints"] += [
+        {"code": "4F-ELEV-WAIT", "x": 20, "y": 0, "kind": "resource_wait"},
+        {"code": "4F-WARD", "x": 0, "y": 10, "kind": "station", "name": "Ward 4"},
+    ]
+    top["edges"] = [["4F-HALL", "4F-ELEV-WAIT"], ["4F-HALL", "4F-WARD"]]
+    data["resources"][0]["stops"]["4F"] = "4F-ELEV-WAIT"
+    return data
+
+
+def given(site, code: str, dropoff: str):
+    """A robot at 1F given a delivery from the pharmacy to `dropoff`, and no other."""
+    robot = robot_ready(factories.robot_create(site, code))
+    task = request(site, dropoffs=(dropoff,), allocate_now=True)
+    assert status(task) == TaskStatus.ASSIGNED
+    Robot.objects.filter(pk=robot.pk).update(status="paused")  # offered nothing more
+    return robot, task
+
+
+def test_with_two_lifts_the_robots_queued_go_by_the_other_and_the_rest_wait(operator):
+    site = factories.site_create(**two_lifts_and_a_top_floor())
+    lift = Resource.objects.get(site=site, code="ELEV")
+    first, _ = given(site, "R1", "2F-LAB")
+    top, _ = given(site, "R2", "4F-WARD")
+    assert vias(first)[-1] == ["1F-ELEV-WAIT", "2F-ELEV-WAIT"]
+    assert vias(top)[-1] == ["1F-ELEV-WAIT", "4F-ELEV-WAIT"]
+    [rider] = robots_on(site, "R3")
+    lease_acquire(robot=rider, resource=lift, request_id="q-ride", to_floor="3F")
+    lease_enter(robot=rider, resource=lift)
+    queued = {
+        robot.code: lease_acquire(
+            robot=robot, resource=lift, request_id=f"q-{robot.code}", to_floor=floor
+        )
+        for robot, floor in ((first, "2F"), (top, "4F"))
+    }
+    for robot in (first, top):  # back where they wait, as their heartbeats say
+        robot_ready(robot, at="1F-ELEV-WAIT", status="waiting_resource")
+    assert {lease.state for lease in queued.values()} == {LeaseState.QUEUED}
+
+    resource_operator_set_priority(resource=lift, on=True, by=operator, reason="code blue")
+
+    assert told_out_of_service(first)
+    assert told_out_of_service(top)
+    assert site_reroute(site_id=site.pk) == ["R1"]
+    assert vias(first)[-1] == ["1F-ELEVB-WAIT", "2F-ELEVB-WAIT"]  # by the other lift
+    assert vias(top)[-1] == ["1F-ELEV-WAIT", "4F-ELEV-WAIT"]  # no other way: it waits
+    # R1 follows its new plan: it gives up its place and takes the other lift at once.
+    lease_release(robot=first, resource=lift)
+    other = Resource.objects.get(site=site, code="ELEV-B")
+    taken = lease_acquire(robot=first, resource=other, request_id="q-b", to_floor="2F")
+    assert taken.state == LeaseState.GRANTED
+    lease_release(robot=rider, resource=lift)  # the rider finishes: the car is not given on
+    assert Lease.objects.get(pk=queued["R2"].pk).state == LeaseState.QUEUED
+
+    resource_operator_set_priority(resource=lift, on=False, by=operator)
+    assert Lease.objects.get(pk=queued["R2"].pk).state == LeaseState.GRANTED

@@ -168,6 +168,12 @@ def test_it_lets_the_vehicle_into_the_lift_only_when_the_car_is_there(vehicle, s
     assert [e["type"] for e in beat["events"]] == ["resource_entered"]
     assert beat["state"]["status"] == "in_resource"
     assert board({**car_at, "id": "m-3"}) == []  # the car still at 1F: it stays in
+    # A fire alarm tells it to get out where the car stands: the bridge has no order for that,
+    # so it acks the message and the vehicle stays in the car until the all-clear sends the car
+    # on to 2F (docs/integrators/vda5050.md, "Fire alarms").
+    told = {"id": "m-5", "type": "elevator_exit", "resource": "ELEV", "floor": "1F"}
+    assert board({**told, "lease": "L-1", "waypoint": "1F-ELEV-WAIT", "reason": "fire"}) == []
+    assert "m-5" in link.acks
     [out] = board({**car_at, "id": "m-4", "floor": "2F"})
     released = [n["nodeId"] for n in out.body["nodes"] if n["released"]]
     assert released[:3] == ["ELEV-CAR", "2F-ELEV-WAIT", "2F-LAB-DOOR-N"]

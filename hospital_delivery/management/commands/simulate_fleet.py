@@ -90,6 +90,11 @@ class Command(BaseCommand):
             "MQTT; they must be declared so (demo_setup --vda5050). Default: as the fleet "
             "file says",
         )
+        parser.add_argument(
+            "--cabin-network",
+            action="store_true",
+            help="the lift cabins have network: robots hear their board while riding",
+        )
         parser.add_argument("--seed", type=int, default=None)
         parser.add_argument("--duration", type=float, help="stop after this many real seconds")
         parser.add_argument(
@@ -162,7 +167,9 @@ class Command(BaseCommand):
             robots=self._robots(file, options["robots"]),
             speedup=options["speedup"],
             network=network,
-            behaviour=Behaviour.for_site(site, staff_delay=options["staff_delay"]),
+            behaviour=Behaviour.for_site(
+                site, staff_delay=options["staff_delay"], cabin_network=options["cabin_network"]
+            ),
             seed=seed,
             traffic_rate=options["traffic"],
             traffic_token=file.get("traffic_token"),
