@@ -1,4 +1,5 @@
-"""Reads done once per unit of work (a heartbeat, an allocation batch) rather than once per row.
+"""Reads done once per unit of work (a heartbeat, a delivery request, an allocation batch)
+rather than once per row.
 
 A unit of work opens a scope inside its transaction (`with memo.scope():`); within it,
 `memo.once(key, read)` reads the first time and hands the same result back after. Outside any
