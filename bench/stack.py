@@ -366,7 +366,7 @@ def temporary_database(base_url: str, *, migrate: bool = True):
     copied = f' TEMPLATE "{_migrated_template(base_url)}"' if migrate else ""
     _postgres_admin(base_url, f'CREATE DATABASE "{name}"{copied}')
     try:
-        yield urlunsplit(parts._replace(path=f"/{name}"))
+        yield _on_database(base_url, name)
     finally:
         _postgres_admin(base_url, f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)')
 
