@@ -27,6 +27,7 @@ from datetime import datetime
 from statistics import fmean
 
 from django.db import transaction
+from django.db.models import Max
 from django.utils import timezone
 from django.utils.translation import gettext_noop
 
@@ -453,8 +454,18 @@ def _serve(resource: Resource, live: list[Lease], *, now) -> list[Lease]:
 
 
 def _grant(lease: Lease, *, resource: Resource, now) -> None:
+    now = _not_before_an_end_recorded_after(now, resource=resource)
     lease.grant(now=now, timeout=resource.site.grant_timeout)
     lease_wait_observe(kind=resource.kind, seconds=(now - lease.requested_at).total_seconds())
+
+
+def _not_before_an_end_recorded_after(now: datetime, *, resource: Resource) -> datetime:
+    """`now`, or the latest end recorded after it of a lease of the resource. A transaction
+    takes its time before it waits for the resource's lock, so the holder it waited for may
+    have ended at a later time than that; a grant recorded before that end would show two
+    robots holding one place."""
+    later = Lease.objects.filter(resource=resource, ended_at__gt=now).aggregate(Max("ended_at"))
+    return later["ended_at__max"] or now
 
 
 def _save_and_tell(lease: Lease, *, resource: Resource, fields) -> None:

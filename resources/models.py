@@ -115,6 +115,8 @@ class Lease(models.Model):
             ),
             # The reports' waits per resource within a period.
             models.Index(fields=["resource", "requested_at"], name="lease_resource_requested"),
+            # A grant's time, never before the end it follows (resources.leases._grant).
+            models.Index(fields=["resource", "ended_at"], name="lease_resource_ended"),
         ]
 
     def __str__(self):

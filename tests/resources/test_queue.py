@@ -86,3 +86,20 @@ def test_it_serves_a_corridor_queue_two_at_a_time(robots, t0):
     # two holders just granted (15 s each by default), two waiting: they enter at 15 s and
     # leave at 30 s, when a fifth robot would get in
     assert resource_wait_estimate(resource=corridor, now=t0) == 30.0
+
+
+def test_a_grant_is_never_recorded_before_the_end_of_the_hold_it_follows(robots, t0):
+    """A heartbeat takes its time before it waits for the resource's lock: here R2's asked at
+    t0 + 0.5 s but was applied after R1's release, recorded at t0 + 1 s."""
+    r1, r2 = robots[:2]
+    ask(r1, "ELEV", t0)
+    lease_enter(robot=r1, resource=resource("ELEV"), now=t0)
+    ended = lease_release(robot=r1, resource=resource("ELEV"), now=t0 + SECOND)
+
+    granted = ask(r2, "ELEV", t0 + SECOND / 2)
+
+    assert granted.state == "granted"
+    assert granted.requested_at == t0 + SECOND / 2
+    assert granted.granted_at == ended.ended_at == t0 + SECOND
+    grant_timeout = timedelta(seconds=granted.resource.site.grant_timeout)
+    assert granted.expires_at == t0 + SECOND + grant_timeout
