@@ -5,6 +5,7 @@ import uuid
 import pytest
 import requests
 from django.conf import settings
+from django.test import override_settings
 
 from robots import selectors
 from tests import factories, servers
@@ -39,6 +40,18 @@ def outbox_in_line():
     sent when its callbacks have run; servers started as subprocesses use the outbox thread
     (tests/resources/test_redis_stalled.py)."""
     settings.OUTBOX_THREAD = False
+
+
+@pytest.fixture(scope="session", autouse=True)
+def passwords_hashed_quickly():
+    """Passwords and workstation PINs hashed with few iterations (tests/hashers.py): what the
+    tests check is who signs in, not what a hash costs."""
+    quick = "tests.hashers.QuickPBKDF2PasswordHasher"
+    others = [
+        name for name in settings.PASSWORD_HASHERS if not name.endswith(".PBKDF2PasswordHasher")
+    ]
+    with override_settings(PASSWORD_HASHERS=[quick, *others]):
+        yield
 
 
 @pytest.fixture(scope="session", autouse=True)

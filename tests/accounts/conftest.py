@@ -11,13 +11,6 @@ AXES = "axes.backends.AxesStandaloneBackend"
 LOCAL = "django.contrib.auth.backends.ModelBackend"
 
 
-@pytest.fixture(autouse=True)
-def quick_hashes(settings):
-    """Local passwords and PINs hashed with Django's fastest hasher: these tests are about who
-    signs in, not the hash's cost (a third of a second for each user otherwise)."""
-    settings.PASSWORD_HASHERS = ["django.contrib.auth.hashers.MD5PasswordHasher"]
-
-
 @pytest.fixture(scope="module")
 def directory():
     with Directory(signin.DIRECTORY_PEOPLE) as running:

@@ -21,13 +21,6 @@ BADGES = {"kim": "04A1-7731-0093", "lee": "04A1-7731-0117"}
 PINS = {"kim": "4821", "lee": "7305"}
 
 
-@pytest.fixture(autouse=True)
-def quick_hashes(settings):
-    """Passwords and PINs hashed with Django's fastest hasher: what is tested is who matches,
-    not the hash's cost (each user and PIN here would otherwise cost a third of a second)."""
-    settings.PASSWORD_HASHERS = ["django.contrib.auth.hashers.MD5PasswordHasher"]
-
-
 def badge_and_pin(user, badge: str, pin: str) -> None:
     membership = SiteMembership.objects.get(user=user)
     membership_badge_set(membership=membership, badge=badge)
