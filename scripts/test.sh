@@ -70,6 +70,8 @@ step "missing migrations" python manage.py makemigrations --check --dry-run
 step "documentation" mkdocs build --strict
 step "translations" compile_catalogs
 # Two workers: the target machines have two cores; each worker gets its own test database.
-step "pytest" pytest -n "${PYTEST_WORKERS:-2}" "$@"
+# worksteal: a worker that runs out of tests takes some of the other's, so a few long tests
+# left at the end of one worker's share do not keep the other idle.
+step "pytest" pytest -n "${PYTEST_WORKERS:-2}" --dist worksteal "$@"
 
 printf '\n\033[1;32m======== all passed in %ds\033[0m\n' "$((SECONDS - started))" >&2

@@ -39,15 +39,29 @@ def orm_beside_playwright(monkeypatch):
     monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
 
 
-@pytest.fixture
-def chromium(transactional_db):
-    with sync_playwright() as playwright:
+@pytest.fixture(scope="module")
+def chromium_of_module():
+    """One Chromium for a module's tests, as Playwright's own pytest plugin shares one browser:
+    each test opens its own contexts (their cookies and storage apart) and a launch costs about a
+    second. Not for the whole session: while Playwright runs, this thread has an asyncio loop,
+    which the ORM calls of the other tests must not meet."""
+    with pytest.MonkeyPatch.context() as patch, sync_playwright() as playwright:
+        patch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # as orm_beside_playwright says
         browser = servers.chromium_launch(playwright)
         yield browser
         browser.close()
-        # Connections the test opened while Playwright ran belong to that async context; close
-        # them in it, or they outlive the test database.
-        connections.close_all()
+        connections.close_all()  # those the last test's flush opened, as below
+
+
+@pytest.fixture
+def chromium(transactional_db, chromium_of_module):
+    """The module's Chromium, with no context of an earlier test left open."""
+    yield chromium_of_module
+    for context in chromium_of_module.contexts:
+        context.close()
+    # Connections the test opened while Playwright ran belong to that async context; close
+    # them in it, or they outlive the test database.
+    connections.close_all()
 
 
 @pytest.fixture
