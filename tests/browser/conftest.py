@@ -31,22 +31,24 @@ def page_servers(django_db_setup, django_db_blocker):
             yield Servers(http=http, ws=ws)
 
 
-@pytest.fixture(autouse=True)
-def orm_beside_playwright(monkeypatch):
+@pytest.fixture(scope="module", autouse=True)
+def orm_beside_playwright():
     """Playwright's sync API keeps an asyncio loop in this thread; Django then refuses ORM calls
     as if they came from async code. They are plain blocking calls made while that loop waits
-    (as Playwright's documentation for Django tests advises)."""
-    monkeypatch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
+    (as Playwright's documentation for Django tests advises). For the whole module, as long as
+    its Chromium (chromium_of_module) runs."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")
+        yield
 
 
 @pytest.fixture(scope="module")
-def chromium_of_module():
+def chromium_of_module(orm_beside_playwright):
     """One Chromium for a module's tests, as Playwright's own pytest plugin shares one browser:
     each test opens its own contexts (their cookies and storage apart) and a launch costs about a
     second. Not for the whole session: while Playwright runs, this thread has an asyncio loop,
     which the ORM calls of the other tests must not meet."""
-    with pytest.MonkeyPatch.context() as patch, sync_playwright() as playwright:
-        patch.setenv("DJANGO_ALLOW_ASYNC_UNSAFE", "true")  # as orm_beside_playwright says
+    with sync_playwright() as playwright:
         browser = servers.chromium_launch(playwright)
         yield browser
         browser.close()
