@@ -1,0 +1,29 @@
+"""PostgreSQL for the tests (tests/settings.py): Django's own backend, subclassed as Django's
+documentation describes, with one change: how a transactional test empties the database.
+
+After every transactional test (every `live_server` test), Django empties every table with
+`flush`: on PostgreSQL one TRUNCATE of them all, which gives each table and index new files, then
+post_migrate makes the content types and permissions again. A test leaves a few rows, and
+deleting them takes a small fraction of the TRUNCATE's time (tests/test_postgresql_flush.py
+checks that the same tables end empty). The content types and permissions are kept: no test
+writes them, and post_migrate, finding them all, then adds none.
+"""
+
+from django.db.backends.postgresql import base, operations
+
+KEPT = frozenset({"django_content_type", "auth_permission"})
+
+
+class DatabaseOperations(operations.DatabaseOperations):
+    def sql_flush(self, style, tables, *, reset_sequences=False, allow_cascade=False):
+        if reset_sequences:  # a test that asked for its sequences to start again
+            return super().sql_flush(
+                style, tables, reset_sequences=True, allow_cascade=allow_cascade
+            )
+        # The foreign keys Django makes are checked at commit (DEFERRABLE INITIALLY DEFERRED),
+        # and flush runs these in one transaction: the order of the tables does not matter.
+        return [f"DELETE FROM {self.quote_name(table)}" for table in tables if table not in KEPT]
+
+
+class DatabaseWrapper(base.DatabaseWrapper):
+    ops_class = DatabaseOperations
