@@ -140,15 +140,17 @@ def test_it_reads_from_a_file_without_a_server(built, browser):
 
 
 def _search(page, question: str, *, timeout: float = 60.0) -> None:
-    """Type `question` into the search box until results show. The browser builds the search
-    index after the page loads (slow on a loaded machine), and a question typed before the index
-    is ready stays unanswered ("Type to start searching") until it is typed again, as a reader
-    would."""
+    """Type `question` into the search box, key by key as a reader does, until results show.
+
+    Material for MkDocs reads the box on a key released, on focus and when its search index is
+    ready, never on a value merely set (Playwright's `fill`), and it ignores a question equal to
+    the last it read: each try clears the box and types the question again."""
     box = page.locator("input.md-search__input")
     results = page.locator(".md-search-result__item").first
     deadline = time.monotonic() + timeout
     while True:
-        box.fill(question)
+        box.fill("")
+        box.press_sequentially(question)
         try:
             expect(results).to_be_attached(timeout=3_000)
             return
