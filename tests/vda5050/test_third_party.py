@@ -125,8 +125,9 @@ def test_it_delivers_across_floors_with_two_third_party_vehicles(site, bridge, i
                 timeout=2,
                 what=f"{action} obeyed",
             )
-    flips = PresenceChange.objects.filter(robot__in=robots).exclude(new="online")
-    assert not flips.exists()  # never unreachable, the quiet one neither
+        # Checked while both are still connected: leaving, each says it goes offline.
+        flips = PresenceChange.objects.filter(robot__in=robots).exclude(new="online")
+        assert not flips.exists()  # never unreachable, the quiet one neither
     # Asked for its factsheet, the library's vehicle publishes one with its header only:
     # stored, and nothing in it to hold an order against.
     for robot in Robot.objects.filter(pk__in=[r.pk for r in robots]):
