@@ -9,7 +9,8 @@ resource) and breaks each by one rule:
 * the robot of the cycle whose hold is a grant it has not used (not inside yet), the most
   recently granted if several, **yields**: its grant is taken back and it queues again at the
   end of the line (a `resource_queued` for the same request, which takes a grant back); the
-  resource goes to the next robot in line, and the cycle is gone;
+  resource goes to the next robot in line, and the cycle is gone (should that robot close a
+  new one, the same sweep breaks it too);
 * a cycle whose holders are all inside their resources cannot be broken by the server (it
   empties no car or corridor): operators are alerted, once per cycle, to move a robot out and
   force-release its lease.
@@ -87,19 +88,37 @@ def _cycle_from(start: int, waits: dict[int, list[Hold]]) -> list[Hold]:
 
 
 def lease_deadlock_sweep(*, now: datetime | None = None) -> int:
-    """Break the wait-for cycles of every site; returns how many cycles were found."""
+    """Break the wait-for cycles of every site; returns how many cycles were found.
+
+    A yielded resource goes to the next robot in line, which may close a new cycle with the
+    same holder (it waits for what that holder keeps): the sweep looks again until it finds
+    no cycle it has not seen. Each yield sends a robot to the end of its line, so the robot
+    whose grant ends the cycles reaches the front within a line's length of yields; the rounds
+    are bounded by the live leases all the same, and the next sweep goes on from there.
+    """
     now = now or timezone.now()
+    seen: set[frozenset[int]] = set()
+    for _round in range(Lease.objects.filter(state__in=LIVE_LEASE_STATES).count() + 1):
+        cycles = [cycle for cycle in _wait_cycles_of_each_site() if _key(cycle) not in seen]
+        if not cycles:
+            break
+        for cycle in cycles:
+            seen.add(_key(cycle))
+            lease_deadlock_break(cycle=cycle, now=now)
+    return len(seen)
+
+
+def _wait_cycles_of_each_site() -> list[list[Hold]]:
     live = Lease.objects.filter(state__in=LIVE_LEASE_STATES).order_by()
     rows = live.values_list("pk", "robot_id", "resource_id", "state", "resource__site_id")
     by_site: dict[int, list[Hold]] = {}
     for pk, robot, resource, state, site in rows:
         by_site.setdefault(site, []).append(Hold(pk, robot, resource, state))
-    found = 0
-    for holds in by_site.values():
-        for cycle in wait_cycles(holds):
-            found += 1
-            lease_deadlock_break(cycle=cycle, now=now)
-    return found
+    return [cycle for holds in by_site.values() for cycle in wait_cycles(holds)]
+
+
+def _key(cycle: list[Hold]) -> frozenset[int]:
+    return frozenset(hold.lease for hold in cycle)
 
 
 @transaction.atomic

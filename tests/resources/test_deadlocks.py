@@ -138,6 +138,18 @@ STEPS = st.lists(
         (2, "acquire", 0),
     ]
 )
+@example(
+    # Breaking the cycle of D2 (door) and D0 (lift) hands the lift to D1, queued for it and
+    # then for the door D2 holds: a new cycle, which the same sweep must break too.
+    steps=[
+        (2, "acquire", 1),
+        (0, "acquire", 0),
+        (0, "acquire", 1),
+        (1, "acquire", 0),
+        (1, "acquire", 1),
+        (2, "acquire", 0),
+    ]
+)
 def test_after_each_sweep_no_cycle_is_left_that_the_server_could_break(eulji, steps):
     _site, robots, resources = eulji
     with transaction.atomic():
