@@ -20,9 +20,15 @@ class DatabaseOperations(operations.DatabaseOperations):
             return super().sql_flush(
                 style, tables, reset_sequences=True, allow_cascade=allow_cascade
             )
-        # The foreign keys Django makes are checked at commit (DEFERRABLE INITIALLY DEFERRED),
-        # and flush runs these in one transaction: the order of the tables does not matter.
-        return [f"DELETE FROM {self.quote_name(table)}" for table in tables if table not in KEPT]
+        emptied = [self.quote_name(table) for table in tables if table not in KEPT]
+        if not emptied:
+            return []
+        # Locked first, as TRUNCATE locks them: the flush waits for the transactions of threads
+        # a test left running, and no write of theirs lands between two of the DELETEs. The
+        # foreign keys Django makes are checked at commit (DEFERRABLE INITIALLY DEFERRED), and
+        # flush runs these in one transaction: the order of the tables does not matter.
+        lock = f"LOCK TABLE {', '.join(emptied)} IN ACCESS EXCLUSIVE MODE"
+        return [lock, *(f"DELETE FROM {table}" for table in emptied)]
 
 
 class DatabaseWrapper(base.DatabaseWrapper):
