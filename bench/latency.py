@@ -1,7 +1,7 @@
 """From a nurse's request to the robot holding its plan: the thesis' Tables 8.1-8.3, and better.
 
     python bench/latency.py            # 20 runs per row, up to 100 robots and users (minutes)
-    python bench/latency.py --quick    # small counts, 2 runs: what CI runs
+    python bench/latency.py --quick    # small counts, 1 run each: what CI runs
     python bench/latency.py --rows 100x100 --runs 5   # only the burst of 100 users
 
 The thesis (Table 8.1-8.3) measured ~75 ms from a user's web request to the robot receiving
@@ -107,7 +107,7 @@ class Outcome:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="small counts: for CI")
-    parser.add_argument("--runs", type=int, help="runs per row (default 20; quick: 2)")
+    parser.add_argument("--runs", type=int, help="runs per row (default 20; quick: 1)")
     parser.add_argument(
         "--database",
         default=os.environ.get("DATABASE_URL", "postgres://postgres@127.0.0.1:5432/postgres"),
@@ -128,7 +128,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     rows = args.rows or (QUICK_ROWS if args.quick else FULL_ROWS)
     pushes = {"no": (False,), "yes": (True,), "both": (False, True)}[args.push]
-    runs = args.runs or (2 if args.quick else 20)
+    runs = args.runs or (1 if args.quick else 20)
     os.environ.setdefault("SECRET_KEY", "bench-only")  # for the servers and manage.py too
     with temporary_database(args.database) as url:
         _django(url)
