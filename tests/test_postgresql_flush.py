@@ -15,7 +15,7 @@ pytestmark = pytest.mark.django_db(transaction=True)
 
 
 @pytest.mark.skipif(connection.vendor != "postgresql", reason="the PostgreSQL backend's flush")
-def test_flush_empties_every_table_but_the_content_types_and_permissions():
+def test_it_empties_every_table_but_the_content_types_and_permissions():
     assert type(connection.ops).__module__ == "tests.postgresql.base"
     robot = robot_create(site_create(), "R1")
     board_post(robot=robot, type="plan", body={"stops": []})
