@@ -129,9 +129,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--capacity",
         type=int,
-        default=int(os.environ.get("HEARTBEAT_CAPACITY", 1000)),  # settings.py's default
         help="the server's HEARTBEAT_CAPACITY, the operator's ceiling (heartbeats/s; below it "
-        "the server lengthens the interval when saturated; 0: robots always told 1 s)",
+        "the server lengthens the interval when saturated; 0: robots always told 1 s; default "
+        "$HEARTBEAT_CAPACITY or settings.py's 1000, and 0 with --quick)",
     )
     parser.add_argument("--warmup", type=float, help="seconds of each row before measuring")
     parser.add_argument("--measure", type=float, help="seconds measured per row")
@@ -148,6 +148,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     saving.add_argument(parser)
     args = parser.parse_args(argv)
+    if args.capacity is None:
+        # --quick: rows of a few seconds on a stack just started. Its first requests wait for
+        # workers still loading, which would tell the robots an interval longer than a row.
+        args.capacity = 0 if args.quick else int(os.environ.get("HEARTBEAT_CAPACITY", 1000))
     settings = QUICK if args.quick else FULL
     settings = Settings(
         tuple(args.robots or settings.counts),
