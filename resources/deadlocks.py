@@ -98,23 +98,31 @@ def lease_deadlock_sweep(*, now: datetime | None = None) -> int:
     """
     now = now or timezone.now()
     seen: set[frozenset[int]] = set()
-    for _round in range(Lease.objects.filter(state__in=LIVE_LEASE_STATES).count() + 1):
-        cycles = [cycle for cycle in _wait_cycles_of_each_site() if _key(cycle) not in seen]
+    holds_by_site = _live_holds_by_site()
+    rounds = sum(len(holds) for holds in holds_by_site.values()) + 1
+    for _round in range(rounds):
+        cycles = [
+            cycle
+            for holds in holds_by_site.values()
+            for cycle in wait_cycles(holds)
+            if _key(cycle) not in seen
+        ]
         if not cycles:
             break
         for cycle in cycles:
             seen.add(_key(cycle))
             lease_deadlock_break(cycle=cycle, now=now)
+        holds_by_site = _live_holds_by_site()
     return len(seen)
 
 
-def _wait_cycles_of_each_site() -> list[list[Hold]]:
+def _live_holds_by_site() -> dict[int, list[Hold]]:
     live = Lease.objects.filter(state__in=LIVE_LEASE_STATES).order_by()
     rows = live.values_list("pk", "robot_id", "resource_id", "state", "resource__site_id")
     by_site: dict[int, list[Hold]] = {}
     for pk, robot, resource, state, site in rows:
         by_site.setdefault(site, []).append(Hold(pk, robot, resource, state))
-    return [cycle for holds in by_site.values() for cycle in wait_cycles(holds)]
+    return by_site
 
 
 def _key(cycle: list[Hold]) -> frozenset[int]:
