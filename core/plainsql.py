@@ -1,13 +1,16 @@
-"""Plain SQL for the few statements every heartbeat runs, written once from the models' fields.
+"""Plain SQL for the few statements every heartbeat or every allocation runs, written once from
+the models' fields.
 
 Django compiles a queryset's SQL again on every call (every column named and quoted, the
 joins, the lock clause) and the text comes out the same each time: for a statement that runs
 on every heartbeat of every robot, that compiling is most of its cost in the web process
-(bench/heartbeat_cpu.py). The statements here are built from the models' public `_meta` API
-(field columns, Field.get_db_prep_save, Field.from_db_value, Model.from_db), so they follow
-the models, and each text is built once: the database prepares it once per connection too
-(settings.DATABASE_PREPARED_STATEMENTS). tests/core/test_plainsql.py checks them against the
-ORM's own.
+(bench/heartbeat_cpu.py); for the allocation's wide reads of robots and routes, a millisecond
+or more each in a nurse's request (bench/request_cpu.py --allocating). The statements are
+built from the models' public `_meta` API (field columns, Field.get_db_prep_save,
+Field.from_db_value, Model.from_db), so they follow the models, and each text is built once:
+the database prepares it once per connection too (settings.DATABASE_PREPARED_STATEMENTS). Each
+has a test that checks it against the ORM's own (tests/core/test_plainsql.py and the tests of
+the modules using it).
 """
 
 from functools import cache

@@ -28,7 +28,7 @@ from robots.models import (
     SiteMembership,
     robot_activity,
 )
-from robots.selectors import available_robots
+from robots.selectors import available_robots_read
 
 # A robot whose visible state does not change is still reported this often (on its next
 # heartbeat after that), so the pages' "last seen" never lags by more than this.
@@ -79,8 +79,8 @@ def robot_lock_if_available(robot_id: int, site: Site) -> Robot | None:
     For the scheduler, which reads the candidates unlocked: an operator's Pause, a presence
     flip or a heartbeat reporting an error may have come in between.
     """
-    available = available_robots(site.pk, site.battery_threshold).filter(pk=robot_id)
-    return _locking(available).first()
+    locked = available_robots_read(site, robot_id=robot_id, lock=True)
+    return locked[0] if locked else None
 
 
 def _locking(robots: QuerySet[Robot]) -> QuerySet[Robot]:

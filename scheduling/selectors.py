@@ -7,6 +7,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from datetime import datetime, timedelta
 
+from django.db import connection
 from django.db.models import (
     Case,
     IntegerField,
@@ -21,7 +22,8 @@ from django.utils import timezone
 from django.utils.translation import gettext
 
 from boards.choices import EventType
-from boards.models import RobotEvent
+from boards.models import BoardMessage, RobotEvent
+from core.plainsql import columns, loaded
 from robots.choices import Presence, WaypointKind
 from robots.mapcache import site_map, waypoint_by_id
 from robots.models import Robot, Site, Waypoint
@@ -83,20 +85,87 @@ def robot_routes(
 
 
 def _route_stops(robots: dict[int, Robot]) -> list[TaskStop]:
-    """The stops of the robots' route tasks, by task and index: of the robot alone, of its
-    site's robots (every allocation and every heartbeat reporting progress reads them), or of
-    any other set of robots."""
+    """The stops of the robots' route tasks, by task and index, each with its task: of the
+    robot alone, of its site's robots (every allocation and every heartbeat reporting progress
+    reads them: plain SQL on PostgreSQL, _ROUTE_STOPS), or of any other set of robots."""
+    sites = {robot.site_id for robot in robots.values()}
+    if connection.vendor == "postgresql" and len(sites) == 1:
+        if len(robots) == 1:
+            return _route_stops_read(_ROUTE_STOPS_OF_ROBOT, next(iter(robots)))
+        return _route_stops_read(_ROUTE_STOPS_OF_SITE, sites.pop())
     if len(robots) == 1:
         return list(_route_stops_of(task__robot_id=next(iter(robots))))
-    sites = {robot.site_id for robot in robots.values()}
     if len(sites) == 1:
         return list(_route_stops_of(task__site_id=sites.pop(), task__robot__isnull=False))
     return list(_route_stops_of(task__robot__in=list(robots)))
 
 
+def _route_stops_read(sql: str, robot_or_site_id: int) -> list[TaskStop]:
+    """_route_stops_of's stops through one of its plain SQL twins, one Task per task."""
+    width, tasks, stops = len(TaskStop._meta.concrete_fields), {}, []
+    with connection.cursor() as cursor:
+        cursor.execute(sql, [_ROUTE_STATUS_VALUES, robot_or_site_id])
+        for row in cursor.fetchall():
+            stop = loaded(TaskStop, row[:width])
+            if stop.task_id not in tasks:
+                tasks[stop.task_id] = loaded(Task, row[width:])
+            stop.task = tasks[stop.task_id]
+            stops.append(stop)
+    return stops
+
+
 def _route_stops_of(**where) -> QuerySet[TaskStop]:
     stops = TaskStop.objects.filter(task__status__in=ROUTE_STATUSES, **where)
     return stops.select_related("task").order_by("task_id", "index")
+
+
+def _column(alias: str, model, field: str) -> str:
+    return f"{alias}.{connection.ops.quote_name(model._meta.get_field(field).column)}"
+
+
+# _route_stops_of(task__robot_id=...) and (task__site_id=..., task__robot__isnull=False): the
+# stops of the route tasks, built once from the models (core/plainsql.py): Django compiles
+# these wide joined rows again on every call, a noticeable share of a nurse's request that is
+# allocated in the request (bench/request_cpu.py --allocating).
+_ROUTE_STATUS_VALUES = [str(status) for status in ROUTE_STATUSES]
+_ROUTE_STOPS = (
+    f"SELECT {columns(TaskStop, 's')}, {columns(Task, 't')} "
+    f"FROM {connection.ops.quote_name(TaskStop._meta.db_table)} s "
+    f"JOIN {connection.ops.quote_name(Task._meta.db_table)} t "
+    f"ON {_column('t', Task, 'id')} = {_column('s', TaskStop, 'task')} "
+    f"WHERE {_column('t', Task, 'status')} = ANY(%s) AND "
+)
+_ORDER = f" ORDER BY {_column('s', TaskStop, 'task')}, {_column('s', TaskStop, 'index')}"
+_ROUTE_STOPS_OF_ROBOT = f"{_ROUTE_STOPS}{_column('t', Task, 'robot')} = %s{_ORDER}"
+_ROUTE_STOPS_OF_SITE = (
+    f"{_ROUTE_STOPS}{_column('t', Task, 'site')} = %s "
+    f"AND {_column('t', Task, 'robot')} IS NOT NULL{_ORDER}"
+)
+
+
+def robot_plan_current(robot_id: int) -> RobotPlan | None:
+    """The last plan posted for the robot, with its board message (None if none or gone): every
+    plan posted reads it (plain SQL on PostgreSQL, _PLAN_CURRENT, as _route_stops)."""
+    if connection.vendor != "postgresql":
+        return RobotPlan.objects.filter(robot_id=robot_id).select_related("message").first()
+    with connection.cursor() as cursor:
+        cursor.execute(_PLAN_CURRENT, [robot_id])
+        row = cursor.fetchone()
+    if row is None:
+        return None
+    width = len(RobotPlan._meta.concrete_fields)
+    plan = loaded(RobotPlan, row[:width])
+    plan.message = None if plan.message_id is None else loaded(BoardMessage, row[width:])
+    return plan
+
+
+_PLAN_CURRENT = (
+    f"SELECT {columns(RobotPlan, 'p')}, {columns(BoardMessage, 'm')} "
+    f"FROM {connection.ops.quote_name(RobotPlan._meta.db_table)} p "
+    f"LEFT JOIN {connection.ops.quote_name(BoardMessage._meta.db_table)} m "
+    f"ON {_column('m', BoardMessage, 'id')} = {_column('p', RobotPlan, 'message')} "
+    f"WHERE {_column('p', RobotPlan, 'robot')} = %s"
+)
 
 
 def robot_route(

@@ -19,7 +19,7 @@ from robots.selectors import robot_dock, robot_position, unit_badges
 from scheduling.allocator import Stop, best_plan
 from scheduling.choices import PRIORITY_ON_THE_WIRE, StopAction
 from scheduling.models import RobotPlan, Task
-from scheduling.selectors import HeldRoute, robot_pace, robot_route
+from scheduling.selectors import HeldRoute, robot_pace, robot_plan_current, robot_route
 from scheduling.services.etas import etas_set, etas_store, stop_times
 
 logger = logging.getLogger(__name__)
@@ -49,7 +49,7 @@ def plan_post(
     wire = _wire_stops(router, start, stops)
     on_route = {code: _task_wire(tasks[code]) for code in dict.fromkeys(s.task for s in stops)}
     # The plan first (the robot travels meanwhile), then its tasks' ETAs.
-    current = _current_plan(robot)
+    current = robot_plan_current(robot.pk)
     plan = _post(robot, wire, on_route, now, current=current, wake_at_once=wake_at_once)
     pace, dwell = robot_pace(robot)
     times = stop_times(router, start, stops, pace=pace, dwell=dwell)
@@ -63,7 +63,7 @@ def plan_post(
 def plan_dock_post(*, robot: Robot, now: datetime) -> RobotPlan:
     """The plan of a robot with nothing left to do: back to its dock (to charge, if it was sent
     to charge: scheduling.services.charging)."""
-    return _dock_post(robot, now, _current_plan(robot))
+    return _dock_post(robot, now, robot_plan_current(robot.pk))
 
 
 def _dock_post(robot: Robot, now: datetime, current: RobotPlan | None) -> RobotPlan:
@@ -119,7 +119,7 @@ def robot_dock_if_idle(*, robot: Robot, now: datetime) -> RobotPlan | None:
     """Send a robot that has nothing left to do to its dock, unless that is its plan already."""
     if not robot_route(robot=robot, now=now).is_empty:
         return None
-    current = _current_plan(robot)
+    current = robot_plan_current(robot.pk)
     if current is not None and current.is_dock:
         return None
     return _dock_post(robot, now, current)  # the plan read once (every delivery ends here)
@@ -132,7 +132,7 @@ def plan_restore(*, robot: Robot, now: datetime) -> RobotPlan | None:
     The plan is made afresh from where the robot is now, with a newer version, so a robot that
     applies only newer plans takes it. Called with the robot's row locked, from its first
     heartbeat after the restart."""
-    current = _current_plan(robot)
+    current = robot_plan_current(robot.pk)
     if current is None or robot.plan_version >= current.version or _may_be_pending(current):
         return None
     logger.info("%s restarted without plan %d: posting it again", robot.code, current.version)
@@ -144,7 +144,7 @@ def plan_refuge_post(*, robot: Robot, refuge: str, now: datetime) -> RobotPlan:
     `dock` stop there first, then the task stops of its current plan, so the tasks it holds
     stay its own while it waits. The refuge is recorded on the alarm first: every plan posted
     for the robot until the all-clear starts with it (_post)."""
-    current = _current_plan(robot)
+    current = robot_plan_current(robot.pk)
     stops = current.body.get("stops", []) if current else []
     tasks = current.body.get("tasks", {}) if current else {}
     return _post(
@@ -167,7 +167,7 @@ def _post(
     current: RobotPlan | None,
     wake_at_once=True,
 ) -> RobotPlan:
-    """Post the plan after `current`, the robot's last plan as _current_plan read it."""
+    """Post the plan after `current`, the robot's last plan as robot_plan_current read it."""
     refuge = _refuge_of(robot)
     if refuge is not None:  # the robot waits out a fire alarm there (plan_refuge_post)
         stops = _after_refuge(robot, refuge, stops)
@@ -209,11 +209,6 @@ def _refuge_of(robot: Robot) -> str | None:
     active = Emergency.objects.active().filter(site_id=robot.site_id)
     refuges = active.values_list("refuges", flat=True).first() or {}
     return refuges.get(robot.code)
-
-
-def _current_plan(robot: Robot) -> RobotPlan | None:
-    """The last plan posted for the robot, with its board message."""
-    return RobotPlan.objects.filter(robot_id=robot.pk).select_related("message").first()
 
 
 def _may_be_pending(current: RobotPlan | None) -> bool:
