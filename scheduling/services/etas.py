@@ -143,6 +143,10 @@ def etas_set(tasks: dict[str, Task], times: Iterable[StopTime], now: datetime) -
 
 def etas_write(tasks: list[Task]) -> None:
     """Write the tasks' ETAs, in one statement however many; no query for none."""
+    if len(tasks) == 1:  # a lone request allocated in the request: a plain UPDATE, not a CASE
+        task = tasks[0]
+        Task.objects.filter(pk=task.pk).update(eta=task.eta, pickup_eta=task.pickup_eta)
+        return
     Task.objects.bulk_update(tasks, ["eta", "pickup_eta"])
 
 
