@@ -1,10 +1,13 @@
-"""The heartbeat's two hottest reads in plain SQL: its robot found by its token and locked, and
-the robot's board.
+"""The heartbeat's hottest statements in plain SQL: its robot found by its token and locked, the
+robot's board, and the message a robot acknowledges taken off it.
 
-Every heartbeat runs both: written once from the models' fields (core/plainsql.py says why).
-On PostgreSQL only, for its lock clause; other databases use the ORM's querysets, which give
-the same instances (tests/boards/test_heartbeat_sql.py).
+Every heartbeat runs the first two, and nearly every ack is of one message (a plan, an
+action): written once from the models' fields (core/plainsql.py says why).
+On PostgreSQL only (its lock clause, UPDATE … RETURNING); other databases use the ORM's
+querysets, which give the same instances (tests/boards/test_heartbeat_sql.py).
 """
+
+from datetime import datetime
 
 from django.db import connection
 
@@ -39,6 +42,23 @@ def board_pending_of(robot_id: int) -> list[BoardMessage]:
         return [loaded(BoardMessage, row) for row in cursor.fetchall()]
 
 
+def board_message_ack(robot_id: int, message_id: int, now: datetime) -> BoardMessage | None:
+    """The robot's message `message_id` marked acked at `now` if it is on its board (pending),
+    as reading it there and saving its `acked_at` would: one statement; else None."""
+    if connection.vendor != "postgresql":
+        pending = BoardMessage.objects.pending().filter(robot_id=robot_id, pk=message_id)
+        message = pending.first()
+        if message is not None:
+            message.acked_at = now
+            message.save(update_fields=["acked_at"])
+        return message
+    acked_at = BoardMessage._meta.get_field("acked_at").get_db_prep_save(now, connection)
+    with connection.cursor() as cursor:
+        cursor.execute(_ACK, [acked_at, message_id, robot_id])
+        row = cursor.fetchone()
+    return None if row is None else loaded(BoardMessage, row)
+
+
 _ROBOT_FIELDS = Robot._meta.concrete_fields
 # Only the robot's row is locked (OF r), not its site's, and FOR NO KEY UPDATE lets rows that
 # refer to the robot be inserted meanwhile: as robot_lock does.
@@ -48,6 +68,15 @@ _ROBOT_BY_TOKEN_LOCKED = (
     f'ON s."{Site._meta.pk.column}" = r."{Robot._meta.get_field("site").column}" '
     f'WHERE r."{Robot._meta.get_field("token_hash").column}" = %s '
     "LIMIT 1 FOR NO KEY UPDATE OF r"
+)
+_ACK = (
+    f'UPDATE "{BoardMessage._meta.db_table}" m '
+    f'SET "{BoardMessage._meta.get_field("acked_at").column}" = %s '
+    f'WHERE m."{BoardMessage._meta.pk.column}" = %s '
+    f'AND m."{BoardMessage._meta.get_field("robot").column}" = %s '
+    f'AND m."{BoardMessage._meta.get_field("acked_at").column}" IS NULL '
+    f'AND m."{BoardMessage._meta.get_field("withdrawn_at").column}" IS NULL '
+    f"RETURNING {columns(BoardMessage, 'm')}"
 )
 _PENDING = (
     f'SELECT {columns(BoardMessage, "m")} FROM "{BoardMessage._meta.db_table}" m '

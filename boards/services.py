@@ -12,7 +12,7 @@ from django.db import transaction
 from django.db.models import QuerySet
 from django.utils import timezone
 
-from boards.heartbeat_sql import board_pending_of
+from boards.heartbeat_sql import board_message_ack, board_pending_of
 from boards.hooks import heartbeat_applied
 from boards.models import BoardMessage, RobotEvent, RobotRequest
 from boards.push import wake_now, wake_on_commit
@@ -244,14 +244,8 @@ def board_ack(*, robot: Robot, public_ids: list[str], now: datetime) -> list[Boa
 
 
 def _ack_one(robot: Robot, pk: int | None, now: datetime) -> list[BoardMessage]:
-    if pk is None:
-        return []
-    message = BoardMessage.objects.pending().filter(robot_id=robot.pk, pk=pk).first()
-    if message is None:
-        return []
-    message.acked_at = now
-    message.save(update_fields=["acked_at"])
-    return [message]
+    message = None if pk is None else board_message_ack(robot.pk, pk, now)
+    return [] if message is None else [message]
 
 
 def board_post(

@@ -5,9 +5,9 @@ from django.db import connection, transaction
 from django.test.utils import CaptureQueriesContext
 from django.utils import timezone
 
-from boards.heartbeat_sql import board_pending_of, robot_by_token_locked
+from boards.heartbeat_sql import board_message_ack, board_pending_of, robot_by_token_locked
 from boards.models import BoardMessage
-from boards.services import board_post
+from boards.services import board_post, board_withdraw
 from robots.models import Robot
 from tests import factories
 
@@ -54,3 +54,25 @@ def test_the_board_is_what_the_orm_finds_pending_oldest_first(robot, site):
     assert [m.pk for m in found] == [first.pk, last.pk]
     assert [_values(m) for m in found] == [_values(m) for m in expected]
     assert board_pending_of(factories.robot_create(site, "R3").pk) == []
+
+
+def test_an_ack_takes_the_robots_pending_message_off_its_board_and_no_other(robot, site):
+    other = factories.robot_create(site, "R2")
+    plan = board_post(robot=robot, type="plan", body={"version": 2, "tasks": {}})
+    withdrawn = board_post(robot=robot, type="action", body={"action": "pause"})
+    board_withdraw(messages=[withdrawn], reason="superseded")
+    elsewhere = board_post(robot=other, type="action", body={"action": "pause"})
+    now = timezone.now()
+
+    with CaptureQueriesContext(connection) as queries:
+        acked = board_message_ack(robot.pk, plan.pk, now)
+
+    assert _values(acked) == _values(BoardMessage.objects.get(pk=plan.pk))
+    assert acked.acked_at == now
+    assert acked.body == {"version": 2, "tasks": {}}
+    assert len(queries) == (1 if connection.vendor == "postgresql" else 2)
+    assert board_message_ack(robot.pk, plan.pk, timezone.now()) is None  # acked already
+    assert board_message_ack(robot.pk, withdrawn.pk, now) is None
+    assert board_message_ack(robot.pk, elsewhere.pk, now) is None
+    assert BoardMessage.objects.get(pk=plan.pk).acked_at == now
+    assert BoardMessage.objects.filter(acked_at__isnull=False).count() == 1
