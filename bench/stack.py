@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import http.client
 import os
 import signal
 import socket
@@ -73,6 +74,20 @@ def queue_forget(redis_url: str, queue: str) -> None:
 def _port_open(port: int) -> bool:
     with socket.socket() as probe:
         return probe.connect_ex(("127.0.0.1", port)) == 0
+
+
+def _http_answers(port: int) -> bool:
+    """Whether a web worker behind `port` answers HTTP: gunicorn's master listens before its
+    workers have loaded Django, which takes seconds on a busy machine. Any status will do (the
+    bare endpoint answers a GET with 405, touching neither the database nor Redis)."""
+    connection = http.client.HTTPConnection("127.0.0.1", port, timeout=2)
+    try:
+        connection.request("GET", "/bench/bare")
+        return connection.getresponse().status > 0
+    except OSError:
+        return False
+    finally:
+        connection.close()
 
 
 class StackError(RuntimeError):
@@ -192,7 +207,7 @@ class Stack:
             self._spawn("beat", [python, "-m", "bench.stack", "beat", self.queue, schedule])
         if self.with_proxy:
             self._spawn("proxy", self._nginx_command())
-        self._wait_port("web", self.http_port)
+        self._wait_answering("web", self.http_port)
         if self.with_daphne:
             self._wait_port("ws", self.ws_port)
         if self.with_proxy:
@@ -233,6 +248,9 @@ class Stack:
 
     def _wait_port(self, name: str, port: int, timeout: float = 60.0) -> None:
         self._wait(name, lambda: _port_open(port), timeout, f"listening on {port}")
+
+    def _wait_answering(self, name: str, port: int, timeout: float = 60.0) -> None:
+        self._wait(name, lambda: _http_answers(port), timeout, f"answering HTTP on {port}")
 
     def _wait_worker(self, timeout: float = 60.0) -> None:
         from celery import Celery
