@@ -25,6 +25,16 @@ def columns(model: type[Model], alias: str) -> str:
     return ", ".join(f"{alias}.{quote(field.column)}" for field in model._meta.concrete_fields)
 
 
+def column(model: type[Model], field: str, alias: str) -> str:
+    """The column of the model's field `field`, `alias."column"`."""
+    return f"{alias}.{connection.ops.quote_name(model._meta.get_field(field).column)}"
+
+
+def table(model: type[Model]) -> str:
+    """The model's table, quoted."""
+    return connection.ops.quote_name(model._meta.db_table)
+
+
 def loaded(model: type[Model], values) -> Model:
     """An instance of `model` from its concrete fields' column values, as the ORM loads one."""
     fields = model._meta.concrete_fields

@@ -8,7 +8,7 @@ from django.db import connection
 from django.db.models import QuerySet
 
 from core.overload import COUNT_SECONDS
-from core.plainsql import columns, loaded
+from core.plainsql import column, columns, loaded, table
 from robots.choices import Presence, RobotStatus
 from robots.mapcache import waypoint_by_id
 from robots.models import Alert, Emergency, Robot, Site, SiteMembership
@@ -51,8 +51,8 @@ def available_robots_read(
     else:
         sql, params = _AVAILABLE, [site.pk, *_REACHABLE, site.battery_threshold, *_UNAVAILABLE]
         if robot_id is not None:
-            sql, params = f"{sql} AND r.{_quoted('id')} = %s", [*params, robot_id]
-        sql += " FOR NO KEY UPDATE" if lock else f" ORDER BY r.{_quoted('code')}"
+            sql, params = f"{sql} AND {column(Robot, 'id', 'r')} = %s", [*params, robot_id]
+        sql += " FOR NO KEY UPDATE" if lock else f" ORDER BY {column(Robot, 'code', 'r')}"
         with connection.cursor() as cursor:
             cursor.execute(sql, params)
             found = [loaded(Robot, row) for row in cursor.fetchall()]
@@ -76,19 +76,19 @@ def available_robots(site_id: int, threshold: float) -> QuerySet[Robot]:
     ).exclude(status__in=UNAVAILABLE_STATUSES)
 
 
-def _quoted(field: str) -> str:
-    return connection.ops.quote_name(Robot._meta.get_field(field).column)
-
-
 _REACHABLE = [str(presence) for presence in REACHABLE]
 _UNAVAILABLE = [str(status) for status in UNAVAILABLE_STATUSES]
 # available_robots' conditions in its order; a NULL battery fails `>=` as it fails __gte.
 _AVAILABLE = (
-    f"SELECT {columns(Robot, 'r')} FROM {connection.ops.quote_name(Robot._meta.db_table)} r "
-    f"WHERE r.{_quoted('site')} = %s AND r.{_quoted('presence')} IN (%s, %s) "
-    f"AND NOT r.{_quoted('paused_by_operator')} AND r.{_quoted('fault_at')} IS NULL "
-    f"AND NOT r.{_quoted('sent_to_charge')} AND r.{_quoted('maintenance_since')} IS NULL "
-    f"AND r.{_quoted('battery')} >= %s AND r.{_quoted('status')} NOT IN (%s, %s)"
+    f"SELECT {columns(Robot, 'r')} FROM {table(Robot)} r "
+    f"WHERE {column(Robot, 'site', 'r')} = %s "
+    f"AND {column(Robot, 'presence', 'r')} IN (%s, %s) "
+    f"AND NOT {column(Robot, 'paused_by_operator', 'r')} "
+    f"AND {column(Robot, 'fault_at', 'r')} IS NULL "
+    f"AND NOT {column(Robot, 'sent_to_charge', 'r')} "
+    f"AND {column(Robot, 'maintenance_since', 'r')} IS NULL "
+    f"AND {column(Robot, 'battery', 'r')} >= %s "
+    f"AND {column(Robot, 'status', 'r')} NOT IN (%s, %s)"
 )
 
 

@@ -23,7 +23,7 @@ from django.utils.translation import gettext
 
 from boards.choices import EventType
 from boards.models import BoardMessage, RobotEvent
-from core.plainsql import columns, loaded
+from core.plainsql import column, columns, loaded, table
 from robots.choices import Presence, WaypointKind
 from robots.mapcache import site_map, waypoint_by_id
 from robots.models import Robot, Site, Waypoint
@@ -119,10 +119,6 @@ def _route_stops_of(**where) -> QuerySet[TaskStop]:
     return stops.select_related("task").order_by("task_id", "index")
 
 
-def _column(alias: str, model, field: str) -> str:
-    return f"{alias}.{connection.ops.quote_name(model._meta.get_field(field).column)}"
-
-
 # _route_stops_of(task__robot_id=...) and (task__site_id=..., task__robot__isnull=False): the
 # stops of the route tasks, built once from the models (core/plainsql.py): Django compiles
 # these wide joined rows again on every call, a noticeable share of a nurse's request that is
@@ -130,16 +126,16 @@ def _column(alias: str, model, field: str) -> str:
 _ROUTE_STATUS_VALUES = [str(status) for status in ROUTE_STATUSES]
 _ROUTE_STOPS = (
     f"SELECT {columns(TaskStop, 's')}, {columns(Task, 't')} "
-    f"FROM {connection.ops.quote_name(TaskStop._meta.db_table)} s "
-    f"JOIN {connection.ops.quote_name(Task._meta.db_table)} t "
-    f"ON {_column('t', Task, 'id')} = {_column('s', TaskStop, 'task')} "
-    f"WHERE {_column('t', Task, 'status')} = ANY(%s) AND "
+    f"FROM {table(TaskStop)} s "
+    f"JOIN {table(Task)} t "
+    f"ON {column(Task, 'id', 't')} = {column(TaskStop, 'task', 's')} "
+    f"WHERE {column(Task, 'status', 't')} = ANY(%s) AND "
 )
-_ORDER = f" ORDER BY {_column('s', TaskStop, 'task')}, {_column('s', TaskStop, 'index')}"
-_ROUTE_STOPS_OF_ROBOT = f"{_ROUTE_STOPS}{_column('t', Task, 'robot')} = %s{_ORDER}"
+_ORDER = f" ORDER BY {column(TaskStop, 'task', 's')}, {column(TaskStop, 'index', 's')}"
+_ROUTE_STOPS_OF_ROBOT = f"{_ROUTE_STOPS}{column(Task, 'robot', 't')} = %s{_ORDER}"
 _ROUTE_STOPS_OF_SITE = (
-    f"{_ROUTE_STOPS}{_column('t', Task, 'site')} = %s "
-    f"AND {_column('t', Task, 'robot')} IS NOT NULL{_ORDER}"
+    f"{_ROUTE_STOPS}{column(Task, 'site', 't')} = %s "
+    f"AND {column(Task, 'robot', 't')} IS NOT NULL{_ORDER}"
 )
 
 
@@ -161,10 +157,10 @@ def robot_plan_current(robot_id: int) -> RobotPlan | None:
 
 _PLAN_CURRENT = (
     f"SELECT {columns(RobotPlan, 'p')}, {columns(BoardMessage, 'm')} "
-    f"FROM {connection.ops.quote_name(RobotPlan._meta.db_table)} p "
-    f"LEFT JOIN {connection.ops.quote_name(BoardMessage._meta.db_table)} m "
-    f"ON {_column('m', BoardMessage, 'id')} = {_column('p', RobotPlan, 'message')} "
-    f"WHERE {_column('p', RobotPlan, 'robot')} = %s"
+    f"FROM {table(RobotPlan)} p "
+    f"LEFT JOIN {table(BoardMessage)} m "
+    f"ON {column(BoardMessage, 'id', 'm')} = {column(RobotPlan, 'message', 'p')} "
+    f"WHERE {column(RobotPlan, 'robot', 'p')} = %s"
 )
 
 
