@@ -12,7 +12,7 @@ from datetime import datetime
 from django.db import connection
 
 from boards.models import BoardMessage
-from core.plainsql import columns, loaded
+from core.plainsql import column, columns, loaded, table
 from core.tokens import token_hash
 from robots.models import Robot, Site
 from robots.services import robot_authenticate
@@ -64,24 +64,24 @@ _ROBOT_FIELDS = Robot._meta.concrete_fields
 # refer to the robot be inserted meanwhile: as robot_lock does.
 _ROBOT_BY_TOKEN_LOCKED = (
     f"SELECT {columns(Robot, 'r')}, {columns(Site, 's')} "
-    f'FROM "{Robot._meta.db_table}" r JOIN "{Site._meta.db_table}" s '
-    f'ON s."{Site._meta.pk.column}" = r."{Robot._meta.get_field("site").column}" '
-    f'WHERE r."{Robot._meta.get_field("token_hash").column}" = %s '
+    f"FROM {table(Robot)} r JOIN {table(Site)} s "
+    f"ON {column(Site, 'pk', 's')} = {column(Robot, 'site', 'r')} "
+    f"WHERE {column(Robot, 'token_hash', 'r')} = %s "
     "LIMIT 1 FOR NO KEY UPDATE OF r"
 )
+# The pending messages' condition, as BoardMessage.objects.pending() has it.
+_IS_PENDING = (
+    f"{column(BoardMessage, 'acked_at', 'm')} IS NULL "
+    f"AND {column(BoardMessage, 'withdrawn_at', 'm')} IS NULL"
+)
 _ACK = (
-    f'UPDATE "{BoardMessage._meta.db_table}" m '
-    f'SET "{BoardMessage._meta.get_field("acked_at").column}" = %s '
-    f'WHERE m."{BoardMessage._meta.pk.column}" = %s '
-    f'AND m."{BoardMessage._meta.get_field("robot").column}" = %s '
-    f'AND m."{BoardMessage._meta.get_field("acked_at").column}" IS NULL '
-    f'AND m."{BoardMessage._meta.get_field("withdrawn_at").column}" IS NULL '
+    f"UPDATE {table(BoardMessage)} m SET {column(BoardMessage, 'acked_at')} = %s "
+    f"WHERE {column(BoardMessage, 'pk', 'm')} = %s "
+    f"AND {column(BoardMessage, 'robot', 'm')} = %s AND {_IS_PENDING} "
     f"RETURNING {columns(BoardMessage, 'm')}"
 )
 _PENDING = (
-    f'SELECT {columns(BoardMessage, "m")} FROM "{BoardMessage._meta.db_table}" m '
-    f'WHERE m."{BoardMessage._meta.get_field("robot").column}" = %s '
-    f'AND m."{BoardMessage._meta.get_field("acked_at").column}" IS NULL '
-    f'AND m."{BoardMessage._meta.get_field("withdrawn_at").column}" IS NULL '
-    f'ORDER BY m."{BoardMessage._meta.pk.column}"'
+    f"SELECT {columns(BoardMessage, 'm')} FROM {table(BoardMessage)} m "
+    f"WHERE {column(BoardMessage, 'robot', 'm')} = %s AND {_IS_PENDING} "
+    f"ORDER BY {column(BoardMessage, 'pk', 'm')}"
 )

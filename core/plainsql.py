@@ -25,9 +25,12 @@ def columns(model: type[Model], alias: str) -> str:
     return ", ".join(f"{alias}.{quote(field.column)}" for field in model._meta.concrete_fields)
 
 
-def column(model: type[Model], field: str, alias: str) -> str:
-    """The column of the model's field `field`, `alias."column"`."""
-    return f"{alias}.{connection.ops.quote_name(model._meta.get_field(field).column)}"
+def column(model: type[Model], field: str, alias: str = "") -> str:
+    """The column of the model's field `field` (its primary key for "pk"), quoted: `"column"`,
+    or `alias."column"`."""
+    name = model._meta.pk.column if field == "pk" else model._meta.get_field(field).column
+    quoted = connection.ops.quote_name(name)
+    return f"{alias}.{quoted}" if alias else quoted
 
 
 def table(model: type[Model]) -> str:
