@@ -3,6 +3,7 @@
     python bench/heartbeat.py            # 100, 200, 500, 1000 robots, PostgreSQL (8 minutes)
     python bench/heartbeat.py --quick    # 20 robots, short: what CI runs
     python bench/heartbeat.py --database sqlite:///    # the default database instead
+    python bench/heartbeat.py --robots 500 --floor       # and the least a heartbeat can do
 
 The server runs as the README recommends for production (bench/stack.py): gunicorn sync workers
 (2 x CPUs + 1 with PostgreSQL, as the README advises; 3 with SQLite, as the Procfile), daphne,
@@ -15,7 +16,9 @@ rising, for the whole run (all rows), as a running fleet does: it does not resta
 and the first heartbeat of a boot costs more queries (a new boot every row would make a third of
 the heartbeats at 1000 robots first ones). In the same run the same load goes
 to `POST /bench/bare`, a DRF view that returns `{}` (no authentication, no database): the ratio
-is what the heartbeat's own work costs.
+is what the heartbeat's own work costs. With --floor, a third row per count goes to
+`POST /bench/floor/<code>` (bench/urls.py), the least a heartbeat kept in the database can
+do: the bare endpoint's throughput is out of reach of any such heartbeat, the floor's is not.
 
 The load generator is one asyncio process with raw HTTP/1.1 (a connection per request: gunicorn's
 sync workers close each one), sending through nginx as robots do in production. It shares the
@@ -141,6 +144,12 @@ def main(argv: list[str] | None = None) -> int:
         help="send the robots' load straight to gunicorn, not through nginx as in production",
     )
     parser.add_argument(
+        "--floor",
+        action="store_true",
+        help="a third row per count: the least a heartbeat kept in the database can do "
+        "(one transaction in plain SQL, bench/urls.py)",
+    )
+    parser.add_argument(
         "--timeline",
         action="store_true",
         help="after the table, each heartbeat row second by second: answers, latency, the "
@@ -161,6 +170,7 @@ def main(argv: list[str] | None = None) -> int:
         args.direct,
     )
     postgres = not args.database.startswith("sqlite")
+    endpoints = ("heartbeat", "floor", "bare") if args.floor else ("heartbeat", "bare")
     workers = args.web_workers or ((2 * os.cpu_count() + 1) if postgres else 3)
     os.environ.setdefault("SECRET_KEY", "bench-only")  # for the servers and manage.py too
     with temporary_database(args.database) as url:
@@ -182,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
             loads = []
             with PushProbes(stack, probes) as push:
                 for count in settings.counts:
-                    for endpoint in ("heartbeat", "bare"):
+                    for endpoint in endpoints:
                         loads.append(_load(stack, tokens[:count], endpoint, settings, push))
         stalled = (
             _redis_stalled_rows(url, workers, tokens[: settings.stalled], settings)
@@ -429,7 +439,11 @@ async def _robot(port, code, token, endpoint, first, window, load: Load, begin: 
     was told, and robots leaving a backlog would come back together."""
     loop = asyncio.get_running_loop()
     boot, due, interval = BOOTS.setdefault(code, Boot()), first, _interval_kept(code, endpoint)
-    path = f"/api/v1/robots/{code}/heartbeat" if endpoint == "heartbeat" else "/bench/bare"
+    path = {
+        "heartbeat": f"/api/v1/robots/{code}/heartbeat",
+        "floor": f"/bench/floor/{code}",
+        "bare": "/bench/bare",
+    }[endpoint]
     while due < window[1]:
         await asyncio.sleep(max(due - loop.time(), 0))
         boot.seq += 1
@@ -521,7 +535,7 @@ def _print_table(loads: list[Load]) -> None:
     for load in loads:
         latencies = sorted(load.latencies)
         print(
-            f"{load.robots:>6}  {load.endpoint if load.endpoint == 'heartbeat' else 'bare {}':<10}"
+            f"{load.robots:>6}  {'bare {}' if load.endpoint == 'bare' else load.endpoint:<10}"
             f"{load.robots:>10}{load.achieved:>11.0f}{_ms(latencies, 50):>8}{_ms(latencies, 99):>8}"
             f"{sum(load.errors.values()):>8}{load.loader_cpu:>11.0%}"
             f"{_percentile(load.told, 50):>7.1f}"
@@ -543,14 +557,20 @@ def _print_table(loads: list[Load]) -> None:
         "talk through nginx, which sends a woken heartbeat (Woken-By) to gunicorn's socket for\n"
         "those; the rows' robots to its regular one (or straight to it, with --direct)."
     )
-    print("\nheartbeat / bare endpoint under the same load:")
-    for heartbeat, bare in zip(loads[::2], loads[1::2], strict=True):
-        ratio = heartbeat.achieved / bare.achieved if bare.achieved else float("nan")
-        slower = _percentile(heartbeat.latencies, 50) / _percentile(bare.latencies, 50)
-        print(
-            f"{heartbeat.robots:>6} robots: {ratio:.2f} of the bare endpoint's throughput, "
-            f"median latency x{slower:.1f}"
-        )
+    print("\nheartbeat (and floor) / bare endpoint under the same load:")
+    rows: dict[int, dict[str, Load]] = {}
+    for load in loads:
+        rows.setdefault(load.robots, {})[load.endpoint] = load
+    for robots, row in rows.items():
+        print(f"{robots:>6} robots: {_against(row['heartbeat'], row['bare'])}")
+        if "floor" in row:
+            print(f"{robots:>6} robots, floor: {_against(row['floor'], row['bare'])}")
+
+
+def _against(load: Load, bare: Load) -> str:
+    ratio = load.achieved / bare.achieved if bare.achieved else float("nan")
+    slower = _percentile(load.latencies, 50) / _percentile(bare.latencies, 50)
+    return f"{ratio:.2f} of the bare endpoint's throughput, median latency x{slower:.1f}"
 
 
 def _print_timelines(loads: list[Load]) -> None:
