@@ -57,7 +57,7 @@ class FloorView(APIView):
             cursor.execute(
                 _ROBOT_SEEN,
                 [
-                    *(state["status"], state["x"], state["y"], state["heading"]),
+                    *(state["status"], state.get("x"), state.get("y"), state.get("heading")),
                     *(state["battery"], state["load"], state["plan_version"], now),
                     *(heartbeat["boot_id"], heartbeat["seq"], now),
                     *(now + timedelta(seconds=3), now + timedelta(seconds=60), robot_id),
