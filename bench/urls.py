@@ -54,6 +54,7 @@ class FloorView(APIView):
             if found is None:
                 return Response(status=401)
             robot_id = found[0]
+            # Online for three intervals of 1 s, as Robot.mark_seen keeps a robot told 1 s.
             cursor.execute(
                 _ROBOT_SEEN,
                 [
