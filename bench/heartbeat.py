@@ -6,7 +6,7 @@
     python bench/heartbeat.py --robots 500 --floor       # and the least a heartbeat can do
 
 The server runs as the README recommends for production (bench/stack.py): gunicorn sync workers
-(2 x CPUs + 1 with PostgreSQL, as the README advises; 3 with SQLite, as the Procfile), daphne,
+(2 x CPUs + 1 with PostgreSQL, as the README advises; 3 with SQLite, as the Procfile; 2 with --quick), daphne,
 a Celery worker and Celery beat (the sweeps run every second, as in production), on a fresh
 database. Each simulated robot heartbeats once a second (phases spread over the second) with a
 realistic body (state at its dock, no events), waiting for each answer and then the interval it
@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import dataclasses
 import datetime
 import json
 import math
@@ -78,6 +79,9 @@ class Settings:
     measure: float
     stalled: int  # robots of the Redis-stalled pair of rows
     direct: bool = False  # the load straight to gunicorn, not through nginx
+    # A load before each stack's rows, so that every web worker has loaded the application.
+    warm: bool = True
+    web_workers: int | None = None  # None: as the README advises for production
 
 
 # A row's robots that were not in the row before start together, and their first heartbeats
@@ -85,7 +89,8 @@ class Settings:
 # 20-40 s to settle after that (bench/heartbeat.py --timeline), and a row measures
 # the fleet once settled (3 s until then).
 FULL = Settings(counts=(100, 200, 500, 1000), warmup=30.0, measure=15.0, stalled=100)
-QUICK = Settings(counts=(20,), warmup=1.0, measure=2.0, stalled=20)
+# Quick: rows that only show the benchmark still runs, on stacks that start quickly.
+QUICK = Settings(counts=(20,), warmup=1.0, measure=2.0, stalled=20, warm=False, web_workers=2)
 
 
 @dataclass
@@ -162,16 +167,19 @@ def main(argv: list[str] | None = None) -> int:
         # workers still loading, which would tell the robots an interval longer than a row.
         args.capacity = 0 if args.quick else int(os.environ.get("HEARTBEAT_CAPACITY", 1000))
     settings = QUICK if args.quick else FULL
-    settings = Settings(
-        tuple(args.robots or settings.counts),
-        settings.warmup if args.warmup is None else args.warmup,
-        settings.measure if args.measure is None else args.measure,
-        args.robots[0] if args.robots else settings.stalled,
-        args.direct,
+    settings = dataclasses.replace(
+        settings,
+        counts=tuple(args.robots or settings.counts),
+        warmup=settings.warmup if args.warmup is None else args.warmup,
+        measure=settings.measure if args.measure is None else args.measure,
+        stalled=args.robots[0] if args.robots else settings.stalled,
+        direct=args.direct,
     )
     postgres = not args.database.startswith("sqlite")
     endpoints = ("heartbeat", "floor", "bare") if args.floor else ("heartbeat", "bare")
-    workers = args.web_workers or ((2 * os.cpu_count() + 1) if postgres else 3)
+    workers = (
+        args.web_workers or settings.web_workers or ((2 * os.cpu_count() + 1) if postgres else 3)
+    )
     os.environ.setdefault("SECRET_KEY", "bench-only")  # for the servers and manage.py too
     with temporary_database(args.database) as url:
         stack = Stack(
@@ -188,7 +196,8 @@ def main(argv: list[str] | None = None) -> int:
         probes, tokens = tokens[-PUSH_PROBES:], tokens[:-PUSH_PROBES]
         with stack:
             _print_header(stack, postgres, settings, argv, args.capacity)
-            _load(stack, tokens[: settings.counts[0]], "heartbeat", settings)  # warm the workers
+            if settings.warm:
+                _load(stack, tokens[: settings.counts[0]], "heartbeat", settings)
             loads = []
             with PushProbes(stack, probes) as push:
                 for count in settings.counts:
@@ -224,7 +233,8 @@ def _redis_stalled_rows(url: str, workers: int, robots, settings: Settings) -> l
                 env={"HEARTBEAT_CAPACITY": "0"},
             )
             with stack:
-                _load(stack, robots, "heartbeat", settings)  # warm the workers
+                if settings.warm:
+                    _load(stack, robots, "heartbeat", settings)
                 loads.append(_load(stack, robots, "heartbeat", settings))
     return loads
 
