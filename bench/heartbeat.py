@@ -5,20 +5,20 @@
     python bench/heartbeat.py --database sqlite:///    # the default database instead
     python bench/heartbeat.py --robots 500 --floor       # and the least a heartbeat can do
 
-The server runs as the README recommends for production (bench/stack.py): gunicorn sync workers
-(2 x CPUs + 1 with PostgreSQL, as the README advises; 3 with SQLite, as the Procfile; 2 with --quick), daphne,
-a Celery worker and Celery beat (the sweeps run every second, as in production), on a fresh
+The server runs as the README recommends for production (bench/stack.py): gunicorn sync workers (2 x
+CPUs + 1 with PostgreSQL, as the README advises; 3 with SQLite, as the Procfile; 2 with --quick),
+daphne, a Celery worker and Celery beat (the sweeps run every second, as in production), on a fresh
 database. Each simulated robot heartbeats once a second (phases spread over the second) with a
-realistic body (state at its dock, no events), waiting for each answer and then the interval it
-told before the next, as the protocol asks; when the server falls behind the robots fall behind
-with it, so "achieved" is what the server sustains. Each robot keeps one boot_id, its seq
-rising, for the whole run (all rows), as a running fleet does: it does not restart every row,
-and the first heartbeat of a boot costs more queries (a new boot every row would make a third of
-the heartbeats at 1000 robots first ones). In the same run the same load goes
-to `POST /bench/bare`, a DRF view that returns `{}` (no authentication, no database): the ratio
-is what the heartbeat's own work costs. With --floor, a third row per count goes to
-`POST /bench/floor/<code>` (bench/urls.py), the least a heartbeat kept in the database can
-do: the bare endpoint's throughput is out of reach of any such heartbeat, the floor's is not.
+realistic body (state at its dock, no events), waiting for each answer and then the interval it told
+before the next, as the protocol asks; when the server falls behind the robots fall behind with it,
+so "achieved" is what the server sustains. Each robot keeps one boot_id, its seq rising, for the
+whole run (all rows), as a running fleet does: it does not restart every row, and the first
+heartbeat of a boot costs more queries (a new boot every row would make a third of the heartbeats at
+1000 robots first ones). In the same run the same load goes to `POST /bench/bare`, a DRF view that
+returns `{}` (no authentication, no database): the ratio is what the heartbeat's own work costs.
+With --floor, a third row per count goes to `POST /bench/floor/<code>` (bench/urls.py), the least a
+heartbeat kept in the database can do: the bare endpoint's throughput is out of reach of any such
+heartbeat, the floor's is not.
 
 The load generator is one asyncio process with raw HTTP/1.1 (a connection per request: gunicorn's
 sync workers close each one), sending through nginx as robots do in production. It shares the
