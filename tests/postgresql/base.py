@@ -9,9 +9,12 @@ checks that the same tables end empty). The content types and permissions are ke
 writes them, and post_migrate, finding them all, then adds none.
 """
 
+from django.db import OperationalError
 from django.db.backends.postgresql import base, operations
+from psycopg import errors
 
 KEPT = frozenset({"django_content_type", "auth_permission"})
+FLUSH_ATTEMPTS = 3
 
 
 class DatabaseOperations(operations.DatabaseOperations):
@@ -29,6 +32,19 @@ class DatabaseOperations(operations.DatabaseOperations):
         # flush runs these in one transaction: the order of the tables does not matter.
         lock = f"LOCK TABLE {', '.join(emptied)} IN ACCESS EXCLUSIVE MODE"
         return [lock, *(f"DELETE FROM {table}" for table in emptied)]
+
+    def execute_sql_flush(self, sql_list):
+        # A thread a test left running may hold one of the tables while it waits for another
+        # the flush has locked (TRUNCATE would meet it too). PostgreSQL ends one of the two;
+        # when that is the flush, the thread's transaction then finishes and the flush, whose
+        # transaction was rolled back whole, starts again.
+        for _ in range(FLUSH_ATTEMPTS - 1):
+            try:
+                return super().execute_sql_flush(sql_list)
+            except OperationalError as error:
+                if not isinstance(error.__cause__, errors.DeadlockDetected):
+                    raise
+        return super().execute_sql_flush(sql_list)
 
 
 class DatabaseWrapper(base.DatabaseWrapper):
