@@ -41,7 +41,8 @@ def test_it_empties_every_table_but_the_content_types_and_permissions():
 @pytest.mark.skipif(connection.vendor != "postgresql", reason="the PostgreSQL backend's flush")
 def test_it_starts_again_when_a_transaction_left_running_deadlocks_with_it():
     site_create()
-    first, last = _flushed_tables()[0], _flushed_tables()[-1]
+    tables = _flushed_tables()
+    first, last = tables[0], tables[-1]
     failures = []
     with psycopg.connect(**_params()) as other:  # a thread's transaction a test left running
         other.execute(f"SELECT FROM {last} LIMIT 1")  # holds `last`
